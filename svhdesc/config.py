@@ -1,0 +1,123 @@
+"""The build configuration: variants and the physics settings injected into them."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .errors import SvhdescError
+from .yamlio import load_yaml, where
+
+# Every section a config may hold, with the keys it accepts (None: free-form mapping).
+SECTIONS: dict[str, set[str] | None] = {
+    "packages": None,
+    "coupling": None,
+    "coupled_limits": None,
+    "hand": {"prefix", "fingertips", "force_sensor", "joint_damping", "joint_armature", "kp", "dampratio"},
+    "arm": {"enabled", "joints", "kp", "dampratio", "joint_damping", "joint_armature"},
+    "mass": {"budgets", "links", "inertials"},
+    "contact": {"model", "sliding", "torsional", "rolling", "default_sliding"},
+    "transmissions": {"interface"},
+    "simulation": {"timestep", "coupling_solref", "coupling_solimp"},
+    "keyframes": None,
+    "collision": None,
+    "scene": {"floor_z"},
+}
+VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
+CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    xacro: Path
+    args: dict[str, str]
+    settings: dict[str, Any]  # merged defaults + overrides
+    config_dir: Path
+
+    @property
+    def hand(self) -> dict[str, Any]:
+        return self.settings["hand"]
+
+    @property
+    def arm(self) -> dict[str, Any]:
+        return self.settings["arm"]
+
+    def path(self, key: str) -> Path:
+        return (self.config_dir / self.settings[key]).resolve()
+
+    def packages(self) -> dict[str, Path]:
+        return {name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()}
+
+
+@dataclass(frozen=True)
+class Config:
+    path: Path
+    variants: dict[str, Variant]
+
+    def select(self, names: list[str] | tuple[str, ...]) -> list[Variant]:
+        for name in names:
+            if name not in self.variants:
+                known = ", ".join(self.variants)
+                raise SvhdescError(f"unknown variant '{name}' (known: {known}; see {self.path})")
+        return [self.variants[n] for n in (names or self.variants)]
+
+
+def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    merged = copy.deepcopy(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict) and key not in {"keyframes", "args"}:
+            merged[key] = _merge(merged[key], value)
+        else:
+            merged[key] = copy.deepcopy(value)
+    return merged
+
+
+def _check_sections(data: dict[str, Any], at: str) -> None:
+    for section, keys in SECTIONS.items():
+        value = data.get(section)
+        if keys is None or value is None:
+            continue
+        if not isinstance(value, dict):
+            raise SvhdescError(f"{where(value, at)}: '{section}' must be a mapping")
+        unknown = set(value) - keys
+        if unknown:
+            raise SvhdescError(f"{where(value, at)}: unknown key(s) {sorted(unknown)} in '{section}'")
+
+
+def load_config(path: Path) -> Config:
+    path = Path(path)
+    data = load_yaml(path)
+    if not isinstance(data, dict) or not isinstance(data.get("variants"), dict) or not data["variants"]:
+        raise SvhdescError(f"{path}: config needs a non-empty 'variants' mapping")
+    unknown = set(data) - set(SECTIONS) - {"variants"}
+    if unknown:
+        raise SvhdescError(f"{where(data, str(path))}: unknown top-level key(s) {sorted(unknown)}")
+    defaults = {key: value for key, value in data.items() if key != "variants"}
+    defaults.setdefault("coupled_limits", "error")
+    for section in ("hand", "arm", "mass", "contact", "transmissions", "simulation", "keyframes", "collision", "scene"):
+        defaults.setdefault(section, {})
+    _check_sections(defaults, str(path))
+    variants = {}
+    for name, entry in data["variants"].items():
+        at = where(entry, str(path))
+        if not isinstance(entry, dict) or "xacro" not in entry:
+            raise SvhdescError(f"{at}: variant {name} needs an 'xacro' entry point")
+        bad = set(entry) - VARIANT_KEYS
+        if bad:
+            raise SvhdescError(f"{at}: variant {name}: unknown key(s) {sorted(bad)}")
+        settings = _merge(defaults, {k: v for k, v in entry.items() if k not in {"xacro", "args"}})
+        _check_sections(settings, at)
+        if "coupling" not in settings:
+            raise SvhdescError(f"{at}: variant {name} has no 'coupling' spec")
+        if settings["coupled_limits"] not in {"error", "widen"}:
+            raise SvhdescError(f"{at}: coupled_limits must be 'error' or 'widen'")
+        model = settings["contact"].get("model", "soft_finger")
+        if model not in CONTACT_MODELS:
+            raise SvhdescError(f"{at}: contact model '{model}' is not one of {sorted(CONTACT_MODELS)}")
+        xacro_path = (path.parent / entry["xacro"]).resolve()
+        args = {str(k): str(v) for k, v in (entry.get("args") or {}).items()}
+        variants[name] = Variant(name, xacro_path, args, settings, path.parent.resolve())
+    return Config(path, variants)

@@ -1,0 +1,535 @@
+"""Convex decomposition of collision meshes with CoACD, behind a content-addressed cache.
+
+CoACD is slow (tens of seconds for the vendor palm at its defaults) and every extra hull slows
+the simulation, so the build decomposes each mesh once per (mesh, parameters, CoACD version) and
+serves every later build from ``HullCache``.  Results are a pure function of the cache key:
+
+* the input is canonicalised first (float32 triangles as in its binary STL, identical vertices
+  merged), so two meshes with the same key are decomposed from the same bytes;
+* CoACD runs with a fixed seed (it is reproducible on one machine, whatever its thread count);
+* every part is re-hulled from float32 points, so the hull survives the STL round trip of the
+  cache bit for bit, and the returned meshes are always parsed back from those bytes.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import hashlib
+import importlib.metadata
+import json
+import multiprocessing
+import os
+import shutil
+import sys
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import trimesh
+
+from svhdesc.errors import SvhdescError
+
+__all__ = [
+    "DecompParams",
+    "DecompParamsError",
+    "HullCache",
+    "cache_key",
+    "cached_decompose",
+    "decompose",
+    "decompose_calls",
+    "parallel_decompose",
+]
+
+# Bump when anything in the post-processing below changes its output: it is part of every key,
+# so stale cache entries simply stop matching.
+_ALGORITHM_VERSION = "svhdesc.decompose/1"
+_STL_HEADER = b"svhdesc binary STL, float32 little-endian".ljust(80, b"\0")
+_STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
+_PREPROCESS_MODES = ("auto", "on", "off")
+
+# CoACD runs started by (or on behalf of) this process: in-process calls of `decompose` plus jobs
+# that `parallel_decompose` ships to worker processes.  Tests use it to prove a cache hit ran none.
+decompose_calls = 0
+
+
+class DecompParamsError(SvhdescError, ValueError):
+    """Invalid decomposition parameters (a ValueError, and a one-line CLI error)."""
+
+
+@dataclass(frozen=True)
+class DecompParams:
+    """CoACD settings plus the per-hull vertex bound.  Defaults suit a phalanx (see README)."""
+
+    threshold: float = 0.08  # concavity threshold; higher -> fewer, looser hulls
+    max_convex_hull: int = 6  # hull cap per mesh (CoACD merges down to it); -1 = no cap
+    preprocess_mode: Literal["auto", "on", "off"] = "auto"  # manifold remesh (auto: if non-manifold)
+    preprocess_resolution: int = 40  # voxel resolution of that remesh
+    resolution: int = 2000  # samples for the concavity metric
+    mcts_nodes: int = 20  # tree-search width/iterations/depth: fewer -> faster, coarser cuts
+    mcts_iterations: int = 100
+    mcts_max_depth: int = 2
+    seed: int = 0
+    max_hull_vertices: int = 32  # bound on vertices per hull (CoACD decimate + our own fallback)
+
+    def __post_init__(self) -> None:
+        # Coerce ints to float so 1 and 1.0 give the same canonical JSON (and cache key).
+        if isinstance(self.threshold, bool) or not isinstance(self.threshold, (int, float)):
+            raise DecompParamsError(
+                f"decomposition parameter 'threshold' must be a number, got {self.threshold!r}"
+            )
+        object.__setattr__(self, "threshold", float(self.threshold))
+        if not 0.0 < self.threshold <= 1.0:
+            raise DecompParamsError(
+                f"decomposition parameter 'threshold' must be in (0, 1], got {self.threshold}"
+            )
+        for name, low in (
+            ("max_convex_hull", -1),
+            ("preprocess_resolution", 1),
+            ("resolution", 1),
+            ("mcts_nodes", 1),
+            ("mcts_iterations", 1),
+            ("mcts_max_depth", 1),
+            ("seed", 0),
+            ("max_hull_vertices", 4),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise DecompParamsError(f"decomposition parameter {name!r} must be an integer, got {value!r}")
+            object.__setattr__(self, name, int(value))
+            if value < low:
+                raise DecompParamsError(f"decomposition parameter {name!r} must be >= {low}, got {value}")
+        if self.max_convex_hull == 0:
+            raise DecompParamsError("decomposition parameter 'max_convex_hull' must be >= 1 or -1 (no cap)")
+        if self.seed >= 2**32:
+            raise DecompParamsError(f"decomposition parameter 'seed' must fit in 32 bits, got {self.seed}")
+        if self.preprocess_mode not in _PREPROCESS_MODES:
+            raise DecompParamsError(
+                f"decomposition parameter 'preprocess_mode' must be one of {_PREPROCESS_MODES}, "
+                f"got {self.preprocess_mode!r}"
+            )
+
+    @classmethod
+    def from_mapping(cls, d: Mapping[str, Any], base: DecompParams | None = None) -> DecompParams:
+        """Build from a config mapping; keys not given keep ``base``'s values (default: defaults)."""
+        known = {f.name for f in dataclasses.fields(cls)}
+        for key in d:
+            if key not in known:
+                raise DecompParamsError(
+                    f"unknown decomposition parameter {key!r} (known: {', '.join(sorted(known))})"
+                )
+        return dataclasses.replace(base or cls(), **dict(d))
+
+    def to_json(self) -> str:
+        """Canonical JSON: sorted keys, no whitespace; part of the cache key."""
+        return json.dumps(dataclasses.asdict(self), sort_keys=True, separators=(",", ":"))
+
+
+# --------------------------------------------------------------------------- STL canonical form
+
+
+def _stl_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """Deterministic binary STL: fixed header, float32 LE, normals recomputed from the faces.
+
+    Private until svhdesc.meshes.stl_bytes lands; then one of the two goes.
+    """
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces, dtype=np.int64)]
+    tri32 = tri.astype("<f4")
+    # Normals from the float32 corners, so the bytes depend on the stored coordinates only.
+    t = tri32.astype(np.float64)
+    cross = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    norm = np.linalg.norm(cross, axis=1, keepdims=True)
+    normals = np.divide(cross, norm, out=np.zeros_like(cross), where=norm > 0)
+    records = np.zeros(len(tri32), dtype=_STL_RECORD)
+    records["normal"] = normals
+    records["vertices"] = tri32
+    return _STL_HEADER + np.uint32(len(records)).astype("<u4").tobytes() + records.tobytes()
+
+
+def _mesh_from_stl(data: bytes) -> trimesh.Trimesh:
+    """Parse a binary STL, merging exactly equal vertices (no tolerance, so nothing collapses)."""
+    if len(data) < 84:
+        raise ValueError("binary STL shorter than its 84-byte header")
+    count = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
+    if len(data) != 84 + count * _STL_RECORD.itemsize:
+        raise ValueError(f"binary STL size {len(data)} does not match its {count} triangles")
+    records = np.frombuffer(data, dtype=_STL_RECORD, count=count, offset=84)
+    corners = records["vertices"].reshape(-1, 3).astype(np.float64)
+    vertices, inverse = np.unique(corners, axis=0, return_inverse=True)
+    faces = inverse.reshape(-1, 3).astype(np.int64)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+
+
+def cache_key(mesh: trimesh.Trimesh, params: DecompParams) -> str:
+    """sha256 over the input's canonical STL, the params' canonical JSON and the CoACD version."""
+    return _key_from_stl(_stl_bytes(mesh), params)
+
+
+def _key_from_stl(stl: bytes, params: DecompParams) -> str:
+    h = hashlib.sha256()
+    # Length-prefixed fields, so no two different inputs can concatenate to the same stream.
+    for part in (_ALGORITHM_VERSION.encode(), _coacd_version().encode(), params.to_json().encode(), stl):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest()
+
+
+def _coacd_version() -> str:
+    try:
+        return importlib.metadata.version("coacd")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+# --------------------------------------------------------------------------- decomposition
+
+
+def _coacd() -> Any:
+    # Imported lazily: the cache works without CoACD, and pool workers can cap OpenMP threads
+    # before its runtime initialises.
+    import coacd
+
+    coacd.set_log_level("error")
+    return coacd
+
+
+def _farthest_points(points: np.ndarray, k: int) -> np.ndarray:
+    """k points by farthest-point sampling; deterministic (start: farthest from the mean)."""
+    dist = np.linalg.norm(points - points.mean(axis=0), axis=1)
+    chosen = [int(np.argmax(dist))]
+    dist = np.linalg.norm(points - points[chosen[0]], axis=1)
+    for _ in range(1, k):
+        nxt = int(np.argmax(dist))
+        chosen.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(points - points[nxt], axis=1))
+    return points[np.sort(chosen)]
+
+
+def _hull(points: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
+    """Convex hull of float32-representable points with at most max_vertices; None if flat."""
+    pts = np.unique(np.asarray(points, dtype=np.float32).astype(np.float64), axis=0)
+    if len(pts) < 4:
+        return None
+    try:
+        hull = trimesh.convex.convex_hull(pts)
+        if len(hull.vertices) > max_vertices:
+            # Too many corners for the simulator: re-hull a well-spread subset (slightly inside).
+            hull = trimesh.convex.convex_hull(_farthest_points(np.asarray(hull.vertices), max_vertices))
+    except Exception:  # qhull raises on coplanar/degenerate input even after joggling
+        return None
+    extent = float(np.max(hull.extents))
+    if not hull.is_watertight or not extent > 0 or hull.volume <= 1e-9 * extent**3:
+        return None
+    return hull
+
+
+def _merge_to_cap(hulls: list[trimesh.Trimesh], cap: int, max_vertices: int) -> list[trimesh.Trimesh]:
+    """Greedy fallback if CoACD returns more than the cap: merge the pair that adds least volume."""
+    hulls = list(hulls)
+    while len(hulls) > cap:
+        best: tuple[float, int, int, trimesh.Trimesh] | None = None
+        for i in range(len(hulls)):
+            for j in range(i + 1, len(hulls)):
+                merged = _hull(np.vstack([hulls[i].vertices, hulls[j].vertices]), max_vertices)
+                if merged is None:
+                    continue
+                growth = merged.volume - hulls[i].volume - hulls[j].volume
+                if best is None or growth < best[0]:
+                    best = (growth, i, j, merged)
+        if best is None:
+            break
+        _, i, j, merged = best
+        hulls = [h for n, h in enumerate(hulls) if n not in (i, j)] + [merged]
+    return hulls
+
+
+def _sort_key(hull_stl: tuple[trimesh.Trimesh, bytes]) -> tuple[Any, ...]:
+    hull, stl = hull_stl
+    # Centroid (rounded so float noise cannot reorder), then volume, then the bytes as tie-break.
+    return (*np.round(hull.center_mass, 9).tolist(), round(float(hull.volume), 15), stl)
+
+
+def _decompose_stl(stl: bytes, params: DecompParams) -> list[bytes]:
+    """Decompose a canonical STL; returns the hulls' canonical STL bytes in deterministic order."""
+    src = _mesh_from_stl(stl)
+    if len(src.faces) == 0:
+        raise ValueError("cannot decompose an empty mesh")
+    coacd = _coacd()
+    parts = coacd.run_coacd(
+        coacd.Mesh(np.asarray(src.vertices, dtype=np.float64), np.asarray(src.faces, dtype=np.int32)),
+        threshold=params.threshold,
+        max_convex_hull=params.max_convex_hull,
+        preprocess_mode=params.preprocess_mode,
+        preprocess_resolution=params.preprocess_resolution,
+        resolution=params.resolution,
+        mcts_nodes=params.mcts_nodes,
+        mcts_iterations=params.mcts_iterations,
+        mcts_max_depth=params.mcts_max_depth,
+        merge=True,  # required for max_convex_hull to take effect
+        decimate=True,  # lets CoACD honour max_ch_vertex itself; _hull enforces it regardless
+        max_ch_vertex=params.max_hull_vertices,
+        seed=params.seed,
+    )
+    # Re-hull every part: CoACD's parts are hulls, but winding/convexity is not guaranteed after
+    # float32 rounding, and flat slivers (zero volume) break simulators, so they are dropped.
+    hulls = [h for h in (_hull(v, params.max_hull_vertices) for v, _ in parts) if h is not None]
+    if not hulls:
+        # Everything degenerate (e.g. a thin plate at coarse resolution): one hull of the lot.
+        whole = _hull(src.vertices, params.max_hull_vertices)
+        if whole is None:
+            raise ValueError("mesh has no volume: cannot build a convex hull")
+        hulls = [whole]
+    if params.max_convex_hull > 0 and len(hulls) > params.max_convex_hull:
+        hulls = _merge_to_cap(hulls, params.max_convex_hull, params.max_hull_vertices)
+    blobs = [(h, _stl_bytes(h)) for h in hulls]
+    return [stl for _, stl in sorted(blobs, key=_sort_key)]
+
+
+def decompose(mesh: trimesh.Trimesh, params: DecompParams) -> list[trimesh.Trimesh]:
+    """Convex decomposition of ``mesh``: convex, outward-wound hulls in a deterministic order,
+    each with at most ``params.max_hull_vertices`` vertices.  Always runs CoACD (no cache)."""
+    global decompose_calls
+    decompose_calls += 1
+    return [_mesh_from_stl(b) for b in _decompose_stl(_stl_bytes(mesh), params)]
+
+
+# --------------------------------------------------------------------------- cache
+
+
+class HullCache:
+    """Content-addressed store: ``<root>/<key>/hull_000.stl ... entry.json``.
+
+    Entries are written into a temporary sibling directory and renamed into place, so readers
+    never see a half-written entry; anything that fails validation later (truncated file, edited
+    JSON, missing hull, e.g. after a crash before the data hit the disk) is deleted and reported
+    as a miss, so no fsync is needed for correctness.
+    """
+
+    ENTRY = "entry.json"
+    FORMAT = 1
+
+    def __init__(self, root: Path | str) -> None:
+        self.root = Path(root)
+
+    @staticmethod
+    def key(mesh: trimesh.Trimesh, params: DecompParams) -> str:
+        return cache_key(mesh, params)
+
+    def path(self, key: str) -> Path:
+        # Keys are sha256 hex digests; anything else could escape root.
+        if len(key) != 64 or any(c not in "0123456789abcdef" for c in key):
+            raise ValueError(f"invalid cache key {key!r}")
+        return self.root / key
+
+    @staticmethod
+    def _name(i: int) -> str:
+        return f"hull_{i:03d}.stl"
+
+    def get(self, key: str) -> list[bytes] | None:
+        """The entry's hull STL bytes, or None on a miss (a corrupt/partial entry is deleted)."""
+        entry = self.path(key)
+        if not entry.is_dir():
+            return None
+        blobs = self._read_valid(entry, key)
+        if blobs is None:
+            shutil.rmtree(entry, ignore_errors=True)
+        return blobs
+
+    def _read_valid(self, entry: Path, key: str) -> list[bytes] | None:
+        try:
+            meta = json.loads((entry / self.ENTRY).read_text(encoding="utf-8"))
+            files = meta["files"]
+            count = meta["count"]
+            if (
+                meta.get("format") != self.FORMAT
+                or meta.get("key") != key
+                or not isinstance(count, int)
+                or count < 1
+                or not isinstance(files, list)
+                or len(files) != count
+            ):
+                return None
+            blobs = []
+            for i, item in enumerate(files):
+                if item["name"] != self._name(i):
+                    return None
+                data = (entry / item["name"]).read_bytes()
+                if hashlib.sha256(data).hexdigest() != item["sha256"]:
+                    return None
+                blobs.append(data)
+            return blobs
+        except (OSError, ValueError, KeyError, TypeError):  # JSONDecodeError is a ValueError
+            return None
+
+    def put(self, key: str, hull_stl_bytes: list[bytes], meta: Mapping[str, Any] | None = None) -> Path:
+        """Store (or replace) an entry atomically; ``meta`` is kept in entry.json for humans."""
+        if not hull_stl_bytes:
+            raise ValueError("refusing to cache an empty hull list")
+        final = self.path(key)
+        self.root.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{key[:16]}.", suffix=".tmp", dir=self.root))
+        try:
+            files = []
+            for i, data in enumerate(hull_stl_bytes):
+                (tmp / self._name(i)).write_bytes(data)
+                files.append({"name": self._name(i), "sha256": hashlib.sha256(data).hexdigest()})
+            entry = {"format": self.FORMAT, "key": key, "count": len(files), "files": files}
+            if meta:
+                entry["meta"] = dict(meta)
+            (tmp / self.ENTRY).write_text(
+                json.dumps(entry, indent=1, sort_keys=True) + "\n", encoding="utf-8"
+            )
+            try:
+                os.replace(tmp, final)
+            except OSError:
+                # POSIX cannot rename onto a non-empty directory: move the old entry aside first.
+                # A reader in between sees no entry (a miss), never a mix of old and new files.
+                trash = Path(tempfile.mkdtemp(prefix=f".{key[:16]}.", suffix=".old", dir=self.root))
+                try:
+                    os.replace(final, trash / "entry")
+                except FileNotFoundError:
+                    pass  # a concurrent get() deleted it meanwhile
+                os.replace(tmp, final)
+                shutil.rmtree(trash, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return final
+
+
+def _entry_meta(params: DecompParams) -> dict[str, Any]:
+    return {
+        "params": dataclasses.asdict(params),
+        "coacd": _coacd_version(),
+        "algorithm": _ALGORITHM_VERSION,
+    }
+
+
+def cached_decompose(
+    mesh: trimesh.Trimesh,
+    params: DecompParams,
+    cache: HullCache | None,
+    force: bool = False,
+) -> tuple[list[trimesh.Trimesh], bool]:
+    """``decompose`` through the cache: (hulls, cache_hit).  ``force`` recomputes and overwrites.
+
+    Hits and misses return identical meshes: both are parsed from the same STL bytes.
+    """
+    global decompose_calls
+    stl = _stl_bytes(mesh)
+    key = _key_from_stl(stl, params)
+    if cache is not None and not force:
+        blobs = cache.get(key)
+        if blobs is not None:
+            return [_mesh_from_stl(b) for b in blobs], True
+    decompose_calls += 1
+    blobs = _decompose_stl(stl, params)
+    if cache is not None:
+        cache.put(key, blobs, _entry_meta(params))
+    return [_mesh_from_stl(b) for b in blobs], False
+
+
+# --------------------------------------------------------------------------- parallel
+
+
+def _init_worker() -> None:
+    # One OpenMP thread per worker: the pool already fills the cores, and oversubscribing them
+    # only slows every job.  Works because the worker imports CoACD lazily, after this.
+    os.environ["OMP_NUM_THREADS"] = "1"
+
+
+class _Progress:
+    """A one-line progress bar on stderr (the caller decides whether stderr is a terminal)."""
+
+    def __init__(self, total: int, enabled: bool, width: int = 30) -> None:
+        self.total, self.enabled, self.width, self.done = total, enabled, width, 0
+
+    def step(self, label: str) -> None:
+        self.done += 1
+        if not self.enabled or self.total == 0:
+            return
+        filled = self.width * self.done // self.total
+        bar = "#" * filled + "-" * (self.width - filled)
+        sys.stderr.write(f"\rdecompose [{bar}] {self.done}/{self.total} {label[:40]:<40}")
+        if self.done == self.total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def parallel_decompose(
+    jobs: list[tuple[str, trimesh.Trimesh, DecompParams]],
+    cache: HullCache | None,
+    n_jobs: int,
+    force: bool = False,
+    progress: bool = False,
+) -> dict[str, tuple[list[trimesh.Trimesh], bool]]:
+    """Decompose many meshes: hits come from the cache, misses run in ``n_jobs`` processes.
+
+    Returns ``{name: (hulls, cache_hit)}`` in job order.  Results do not depend on ``n_jobs``
+    (each is a function of its key alone); jobs with equal keys are decomposed once.
+    ``n_jobs <= 0`` means one process per CPU; 1 runs in this process without a pool.
+    """
+    global decompose_calls
+    names = [name for name, _, _ in jobs]
+    if len(set(names)) != len(names):
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"duplicate job names: {', '.join(dupes)}")
+
+    results: dict[str, tuple[list[trimesh.Trimesh], bool]] = {}
+    pending: dict[str, tuple[bytes, DecompParams, list[str]]] = {}  # key -> (stl, params, names)
+    bar = _Progress(len(jobs), progress)
+    for name, mesh, params in jobs:
+        stl = _stl_bytes(mesh)
+        key = _key_from_stl(stl, params)
+        if key in pending:
+            pending[key][2].append(name)
+            continue
+        blobs = None if cache is None or force else cache.get(key)
+        if blobs is not None:
+            results[name] = ([_mesh_from_stl(b) for b in blobs], True)
+            bar.step(f"{name} (cached)")
+        else:
+            pending[key] = (stl, params, [name])
+
+    def finish(key: str, blobs: list[bytes]) -> None:
+        _, params, job_names = pending[key]
+        if cache is not None:
+            cache.put(key, blobs, _entry_meta(params))
+        for job_name in job_names:
+            results[job_name] = ([_mesh_from_stl(b) for b in blobs], False)
+            bar.step(job_name)
+
+    workers = n_jobs if n_jobs > 0 else (os.cpu_count() or 1)
+    workers = min(workers, len(pending))
+    if workers <= 1:
+        for key, (stl, params, job_names) in pending.items():
+            decompose_calls += 1
+            finish(key, _run_job(job_names[0], stl, params))
+    elif pending:
+        # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
+        ctx = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker
+        ) as pool:
+            futures = {}
+            for key, (stl, params, job_names) in pending.items():
+                decompose_calls += 1
+                futures[pool.submit(_run_job, job_names[0], stl, params)] = key
+            try:
+                for fut in concurrent.futures.as_completed(futures):
+                    finish(futures[fut], fut.result())
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                raise
+    return {name: results[name] for name in names}
+
+
+def _run_job(name: str, stl: bytes, params: DecompParams) -> list[bytes]:
+    try:
+        return _decompose_stl(stl, params)
+    except Exception as exc:
+        raise RuntimeError(f"convex decomposition of {name!r} failed: {exc}") from exc

@@ -1,0 +1,181 @@
+"""Neutral intermediate representation: what every processor reads and every exporter renders.
+
+All types are frozen; processors return new objects with ``dataclasses.replace``.
+Lengths in metres, angles in radians, masses in kg, inertias in kg m^2 about the centre of mass
+in the link frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Pose:
+    xyz: Vec3 = (0.0, 0.0, 0.0)
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Inertial:
+    mass: float
+    com: Vec3
+    # ixx, ixy, ixz, iyy, iyz, izz in the link frame (axes not rotated).
+    inertia: tuple[float, float, float, float, float, float]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """A visual or collision shape. ``kind`` is mesh|box|cylinder|sphere|capsule."""
+
+    kind: str
+    origin: Pose = Pose()
+    size: tuple[float, ...] = ()
+    mesh: str | None = None  # absolute path of the source mesh, or asset name after processing
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    rgba: tuple[float, float, float, float] | None = None
+    material: str | None = None
+    name: str | None = None
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Surface properties of a link's collision geoms."""
+
+    mu: float
+    torsional: float = 0.0
+    rolling: float = 0.0
+    condim: int = 3
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    inertial: Inertial | None = None
+    visuals: tuple[Geometry, ...] = ()
+    collisions: tuple[Geometry, ...] = ()
+    contact: Contact | None = None
+
+    @property
+    def has_geometry(self) -> bool:
+        return bool(self.visuals or self.collisions)
+
+
+@dataclass(frozen=True)
+class Mimic:
+    """joint = sum(coeffs[i] * channel_joint**i); URDF carries only the linear part."""
+
+    joint: str
+    coeffs: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    type: str  # revolute|continuous|prismatic|fixed
+    parent: str
+    child: str
+    origin: Pose = Pose()
+    axis: Vec3 = (1.0, 0.0, 0.0)
+    lower: float = 0.0
+    upper: float = 0.0
+    effort: float = 0.0
+    velocity: float = 0.0
+    damping: float = 0.0
+    friction: float = 0.0
+    armature: float = 0.0
+    mimic: Mimic | None = None
+    source: str = ""  # file:line of the definition, for error messages
+
+    @property
+    def movable(self) -> bool:
+        return self.type != "fixed"
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One motor of the real driver: drives ``joint``; coupled joints follow it."""
+
+    name: str
+    joint: str
+    lower: float
+    upper: float
+    effort: float
+    velocity: float
+
+
+@dataclass(frozen=True)
+class Coupling:
+    joint: str
+    channel: str  # channel name
+    coeffs: tuple[float, ...]  # polynomial in the channel joint's position, constant term first
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """A position-controlled joint (hand channel or arm joint)."""
+
+    name: str
+    joint: str
+    lower: float
+    upper: float
+    effort: float
+    kp: float
+    dampratio: float = 1.0
+
+
+@dataclass(frozen=True)
+class Transmission:
+    name: str
+    joint: str
+    interface: str
+    reduction: float = 1.0
+
+
+@dataclass(frozen=True)
+class Keyframe:
+    name: str
+    qpos: tuple[tuple[str, float], ...]  # every movable joint, spec-propagated
+
+
+@dataclass(frozen=True)
+class ForceSensor:
+    name: str
+    link: str
+    site_pos: Vec3 = (0.0, 0.0, 0.0)
+    site_size: float = 0.008
+
+
+@dataclass(frozen=True)
+class Robot:
+    name: str
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]
+    root: str
+    channels: tuple[Channel, ...] = ()
+    couplings: tuple[Coupling, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+    transmissions: tuple[Transmission, ...] = ()
+    keyframes: tuple[Keyframe, ...] = ()
+    sensors: tuple[ForceSensor, ...] = ()
+    settings: dict = field(default_factory=dict, hash=False, compare=False)
+
+    def link(self, name: str) -> Link:
+        for link in self.links:
+            if link.name == name:
+                return link
+        raise KeyError(name)
+
+    def joint(self, name: str) -> Joint:
+        for joint in self.joints:
+            if joint.name == name:
+                return joint
+        raise KeyError(name)
+
+    def child_joints(self, link: str) -> list[Joint]:
+        return [j for j in self.joints if j.parent == link]
+
+    def parent_joint(self, link: str) -> Joint | None:
+        return next((j for j in self.joints if j.child == link), None)

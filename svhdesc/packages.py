@@ -1,0 +1,53 @@
+"""ROS-free package lookup: ``$(find PKG)`` and ``package://PKG/...`` through an explicit map."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+from .errors import SvhdescError
+
+
+def package_map(explicit: Mapping[str, Path], *, env: Mapping[str, str] | None = None) -> dict[str, Path]:
+    """Explicit ``--package NAME=DIR`` entries win over packages found on ROS_PACKAGE_PATH."""
+    env = os.environ if env is None else env
+    found: dict[str, Path] = {}
+    for root in filter(None, env.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
+        root_path = Path(root)
+        # A package is a directory holding package.xml, the root itself or one level down.
+        for candidate in [root_path, *sorted(p for p in root_path.glob("*") if p.is_dir())]:
+            if (candidate / "package.xml").is_file():
+                found.setdefault(candidate.name, candidate.resolve())
+    found.update({name: Path(path).resolve() for name, path in explicit.items()})
+    return found
+
+
+def parse_package_option(value: str) -> tuple[str, Path]:
+    name, sep, directory = value.partition("=")
+    if not sep or not name or not directory:
+        raise SvhdescError(f"--package {value!r}: expected NAME=DIR")
+    path = Path(directory)
+    if not path.is_dir():
+        raise SvhdescError(f"--package {name}: directory {directory} does not exist")
+    return name, path.resolve()
+
+
+def find_package(name: str, packages: Mapping[str, Path], where: str) -> Path:
+    try:
+        return packages[name]
+    except KeyError:
+        known = ", ".join(sorted(packages)) or "none"
+        raise SvhdescError(
+            f"{where}: unknown package '{name}' (known: {known}; add --package {name}=DIR)"
+        ) from None
+
+
+def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:
+    """Turn a mesh URI (package://, file://, absolute or relative path) into a file path."""
+    if uri.startswith("package://"):
+        name, _, rest = uri[len("package://") :].partition("/")
+        return find_package(name, packages, where) / rest
+    if uri.startswith("file://"):
+        return Path(uri[len("file://") :])
+    return Path(uri)

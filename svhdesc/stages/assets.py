@@ -1,0 +1,18 @@
+"""Mesh assets produced by the build: name -> STL bytes, plus the loaded mesh for later stages."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import trimesh
+
+
+@dataclass
+class Assets:
+    files: dict[str, bytes] = field(default_factory=dict)
+    meshes: dict[str, trimesh.Trimesh] = field(default_factory=dict)
+
+    def add(self, name: str, mesh: trimesh.Trimesh, data: bytes) -> str:
+        self.files[name] = data
+        self.meshes[name] = mesh
+        return name
