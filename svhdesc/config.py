@@ -87,10 +87,36 @@ def _check_sections(data: dict[str, Any], at: str) -> None:
             raise SvhdescError(f"{where(value, at)}: unknown key(s) {sorted(unknown)} in '{section}'")
 
 
+def _read(path: Path, chain: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """The config's mapping with ``extends: BASE`` resolved (the base's variants are not inherited)."""
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise SvhdescError(f"{path}: config must be a mapping")
+    base_name = data.pop("extends", None)
+    if base_name is None:
+        return data
+    base_path = (path.parent / str(base_name)).resolve()
+    if base_path in chain:
+        raise SvhdescError(f"{where(data, str(path))}: 'extends' loops back to {base_path}")
+    base = _read(base_path, (*chain, path.resolve()))
+    base.pop("variants", None)
+    # Paths in the base stay relative to the base file.
+    for key in ("coupling",):
+        if key in base:
+            base[key] = str((base_path.parent / base[key]).resolve())
+    if "packages" in base:
+        base["packages"] = {k: str((base_path.parent / v).resolve()) for k, v in base["packages"].items()}
+    merged = _merge(base, data)
+    if isinstance(data, dict) and hasattr(data, "where"):
+        merged = type(data)(merged)
+        merged.where = data.where  # type: ignore[attr-defined]
+    return merged
+
+
 def load_config(path: Path) -> Config:
     path = Path(path)
-    data = load_yaml(path)
-    if not isinstance(data, dict) or not isinstance(data.get("variants"), dict) or not data["variants"]:
+    data = _read(path)
+    if not isinstance(data.get("variants"), dict) or not data["variants"]:
         raise SvhdescError(f"{path}: config needs a non-empty 'variants' mapping")
     unknown = set(data) - set(SECTIONS) - {"variants"}
     if unknown:

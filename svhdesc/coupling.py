@@ -151,7 +151,7 @@ def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str, *, widen_limits: b
         low, high = image(coupling.coeffs, channel.lower, channel.upper)
         if low < joint.lower - LIMIT_TOL or high > joint.upper + LIMIT_TOL:
             message = (
-                f"coupled joint {joint.name}: image [{low:.6g}, {high:.6g}] of channel {channel.name} "
+                f"coupled joint {joint.name}: image [{low:.9g}, {high:.9g}] of channel {channel.name} "
                 f"range [{channel.lower}, {channel.upper}] leaves its limit [{joint.lower}, {joint.upper}]"
             )
             if not widen_limits:

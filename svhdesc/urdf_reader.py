@@ -5,11 +5,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
 from lxml import etree
 
 from .errors import SvhdescError
 from .ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
 from .packages import resolve_uri
+from .stages.frames import rpy_matrix
 
 
 def _floats(text: str | None, n: int, default: tuple[float, ...], where: str) -> tuple[float, ...]:
@@ -86,12 +88,15 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     if element is None:
         return None
     origin = _pose(element.find("origin"), where)
-    if any(origin.rpy):
-        raise SvhdescError(f"{where}: rotated inertial frames are not supported; rotate the tensor instead")
     mass = float(element.find("mass").get("value"))
     inertia = element.find("inertia")
-    values = tuple(float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
-    return Inertial(mass, origin.xyz, values)  # type: ignore[arg-type]
+    ixx, ixy, ixz, iyy, iyz, izz = (float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+    tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    if any(origin.rpy):  # the IR keeps tensors in the link frame
+        rotation = rpy_matrix(origin.rpy)
+        tensor = rotation @ tensor @ rotation.T
+    values = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
+    return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
 
 
 def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path) -> Robot:

@@ -95,19 +95,34 @@ def mjcf_joint_order(robot: Robot) -> list[str]:
 
 
 def _excludes(robot: Robot) -> list[tuple[str, str]]:
-    """Adjacent bodies with collision geometry, looking through geometry-less bodies between them."""
+    """Pairs of collision bodies at most two steps apart in the tree of collision bodies.
+
+    Geometry-less bodies are looked through. Two steps (grandparent, sibling) because a finger's
+    proximal phalanx rests against the palm across its knuckle body, and neighbouring knuckles touch.
+    """
     parent_of = {j.child: j.parent for j in robot.joints}
-    colliding = {link.name for link in robot.links if link.collisions}
-    pairs = []
-    for link in robot.links:
-        if link.name not in colliding:
-            continue
-        ancestor = parent_of.get(link.name)
+    colliding = [link.name for link in robot.links if link.collisions]
+
+    def collision_parent(name: str) -> str | None:
+        ancestor = parent_of.get(name)
         while ancestor is not None and ancestor not in colliding:
             ancestor = parent_of.get(ancestor)
-        if ancestor is not None:
-            pairs.append((ancestor, link.name))
-    return pairs
+        return ancestor
+
+    up = {name: collision_parent(name) for name in colliding}
+    pairs = set()
+    for name in colliding:
+        parent = up[name]
+        if parent is None:
+            continue
+        pairs.add((parent, name))
+        if up[parent] is not None:
+            pairs.add((up[parent], name))
+        for sibling in colliding:
+            if sibling != name and up[sibling] == parent and (sibling, name) not in pairs:
+                pairs.add((name, sibling))
+    order = {name: i for i, name in enumerate(colliding)}
+    return sorted(pairs, key=lambda pair: (order[pair[0]], order[pair[1]]))
 
 
 def export_mjcf(robot: Robot, settings: dict[str, Any]) -> bytes:
@@ -121,7 +136,7 @@ def export_mjcf(robot: Robot, settings: dict[str, Any]) -> bytes:
     classes = sub(default, "default", class_=robot.name)
     sub(sub(classes, "default", class_="visual"), "geom", type="mesh", contype="0", conaffinity="0", group="2",
         density="0")
-    sub(sub(classes, "default", class_="collision"), "geom", group="3", density="0", solref="0.004 1",
+    sub(sub(classes, "default", class_="collision"), "geom", group="3", density="0", solref="0.002 1",
         solimp="0.95 0.99 0.001")
     asset = sub(root, "asset")
     meshes = sorted({g.mesh for link in robot.links for g in (*link.visuals, *link.collisions) if g.kind == "mesh"})

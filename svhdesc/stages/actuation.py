@@ -51,7 +51,7 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
                      float(hand["kp"]), float(hand.get("dampratio", 1.0)))
         )
     names = arm_joints(robot, arm)
-    kps = _per_joint(arm.get("kp", 1000.0), len(names), "arm.kp")
+    kps = _per_joint(arm.get("kp", 1000.0), len(names), "arm.kp") if names else []
     for name, kp in zip(names, kps):
         j = joints[name]
         actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0))))
