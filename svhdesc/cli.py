@@ -131,3 +131,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
         click.echo(" " * 26 + " ".join(f"{c[:8]:>8}" for c in short))
         for name, row in zip(rows, matrix):
             click.echo(f"  {name.removeprefix(prefix):<24}" + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""Shared helpers for the tests: one build of every variant per session, and a CLI runner."""
+
+from __future__ import annotations
+
+import functools
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+VENDOR_SVH = SHARED / "vendor" / "schunk_svh_driver"
+VENDOR_UR = SHARED / "vendor" / "ur_description"
+VARIANTS = ("svh_right", "svh_left", "ur5_svh_right")
+
+
+def run_cli(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "svhdesc.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=600
+    )
+
+
+@functools.cache
+def built() -> Path:
+    """A fresh build of every variant (not the committed one), shared by the whole session."""
+    out = Path(tempfile.mkdtemp(prefix="svhdesc-test-build-"))
+    result = run_cli("build", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    return out
+
+
+def model_files(variant: str) -> tuple[Path, Path]:
+    directory = built() / variant
+    return directory / f"{variant}.urdf", directory / f"{variant}.xml"

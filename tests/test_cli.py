@@ -1,0 +1,145 @@
+"""CLI behaviour: bad input exits 2 with one line and changes nothing; --check; list/info; atomic writes."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+
+from .support import REPO, built, run_cli
+
+CONFIG = REPO / "config" / "svhdesc.yaml"
+
+
+def snapshot(directory: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def out(tmp_path: Path) -> Path:
+    """An output directory holding a previous good build of svh_right."""
+    target = tmp_path / "out"
+    shutil.copytree(built() / "svh_right", target / "svh_right")
+    return target
+
+
+@pytest.fixture
+def project(tmp_path: Path) -> Path:
+    """A copy of the sources (config, xacro, meshes) to break in a test."""
+    root = tmp_path / "project"
+    for part in ("config", "xacro", "meshes"):
+        shutil.copytree(REPO / part, root / part)
+    return root
+
+
+def fails_cleanly(out: Path, *args: str, match: str) -> str:
+    before = snapshot(out)
+    result = run_cli("build", "svh_right", "--out", str(out), *args)
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    errors = [line for line in lines if line.startswith("error:")]
+    assert len(errors) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert match in errors[0], errors[0]
+    assert snapshot(out) == before  # nothing in --out changed
+    assert [p.name for p in out.iterdir()] == ["svh_right"]  # no temporary leftovers
+    return errors[0]
+
+
+def configure(project: Path, edit: dict | None = None) -> Path:
+    data = yaml.safe_load((project / "config" / "svhdesc.yaml").read_text())
+    data.update(edit or {})
+    data["packages"] = {"svhdesc": ".."}
+    path = project / "config" / "svhdesc.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def test_malformed_xacro_names_file_and_line(out: Path, project: Path) -> None:
+    source = project / "xacro" / "svh.xacro"
+    lines = source.read_text().splitlines()
+    lines[40] = lines[40] + "<broken"
+    source.write_text("\n".join(lines))
+    message = fails_cleanly(out, "--config", str(configure(project)), match="svh.xacro:")
+    assert "malformed XML" in message
+
+
+def test_missing_mesh_is_named(out: Path, project: Path) -> None:
+    (project / "meshes" / "svh" / "t.dae").unlink()
+    fails_cleanly(out, "--config", str(configure(project)), match="t.dae")
+
+
+def test_unknown_package_is_named(out: Path, project: Path) -> None:
+    config = configure(project)
+    data = yaml.safe_load(config.read_text())
+    data["packages"] = {"other": ".."}
+    config.write_text(yaml.safe_dump(data))
+    fails_cleanly(out, "--config", str(config), match="unknown package 'svhdesc'")
+
+
+def test_bad_coupling_spec_is_named(out: Path, project: Path) -> None:
+    spec = project / "config" / "coupling.yaml"
+    spec.write_text(spec.read_text().replace("joint: j15,", "joint: j99,"))
+    fails_cleanly(out, "--config", str(configure(project)), match="coupling.yaml:")
+
+
+def test_vendor_limit_contradiction_is_refused_in_strict_mode(out: Path, project: Path) -> None:
+    source = project / "xacro" / "svh.xacro"
+    text = source.read_text()
+    assert "1.39457" in text  # our fixed j15 limit
+    source.write_text(text.replace("1.39457", "1.334"))
+    fails_cleanly(out, "--config", str(configure(project)), match="j15")
+
+
+def test_unknown_variant(out: Path) -> None:
+    fails_cleanly(out, "no_such_hand", match="unknown variant 'no_such_hand'")
+
+
+def test_unreadable_config(out: Path, tmp_path: Path) -> None:
+    fails_cleanly(out, "--config", str(tmp_path / "absent.yaml"), match="absent.yaml")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("variants: [unclosed\n")
+    fails_cleanly(out, "--config", str(broken), match="broken.yaml:")
+
+
+def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path) -> None:
+    out = tmp_path / "gen"
+    shutil.copytree(built(), out)
+    assert run_cli("build", "--check", "--out", str(out)).returncode == 0
+    urdf = out / "svh_left" / "svh_left.urdf"
+    urdf.write_bytes(urdf.read_bytes() + b"\n")
+    (out / "svh_right" / "assets" / "stale.stl").write_bytes(b"x")
+    result = run_cli("build", "--check", "--out", str(out))
+    assert result.returncode == 1
+    assert "svh_left/svh_left.urdf" in result.stderr and "stale.stl" in result.stderr
+    assert urdf.read_bytes().endswith(b"\n\n")  # --check changes nothing
+
+
+def test_committed_generated_models_are_current() -> None:
+    result = run_cli("build", "--check")
+    assert result.returncode == 0, result.stderr
+
+
+def test_list_and_info() -> None:
+    listed = run_cli("list")
+    assert listed.returncode == 0
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == ["svh_right", "svh_left", "ur5_svh_right"]
+    info = run_cli("info", "ur5_svh_right")
+    assert info.returncode == 0, info.stderr
+    assert "26 joints, 15 DoF (11 coupled), 15 actuators" in info.stdout
+    row = next(line for line in info.stdout.splitlines() if line.strip().startswith("j15 "))
+    assert "1.045" in row
+
+
+def test_vendor_description_builds_with_this_projects_spec(tmp_path: Path) -> None:
+    from .support import VENDOR_SVH, VENDOR_UR
+
+    if not VENDOR_SVH.is_dir():
+        pytest.skip("../shared/vendor is not beside this checkout")
+    result = run_cli("build", "svh_vendor_right", "--config", str(REPO / "config" / "vendor.yaml"),
+                     "--out", str(tmp_path), "--package", f"schunk_svh_driver={VENDOR_SVH}",
+                     "--package", f"ur_description={VENDOR_UR}")
+    assert result.returncode == 0, result.stderr
+    assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr
+    assert (tmp_path / "svh_vendor_right" / "svh_vendor_right.xml").is_file()
