@@ -1,10 +1,10 @@
 """svhdesc: simulation-ready SCHUNK SVH hand and UR5 + SVH models (URDF + MJCF) from one source.
 
-    import svhdesc
-    svhdesc.variants()                      # ['svh_left', 'svh_right', 'ur5_svh_right']
-    model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path
-    svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
-    m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
+import svhdesc
+svhdesc.variants()                      # ['svh_left', 'svh_right', 'ur5_svh_right']
+model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path
+svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
+m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
 """
 
 from __future__ import annotations

@@ -49,7 +49,9 @@ class Variant:
         return (self.config_dir / self.settings[key]).resolve()
 
     def packages(self) -> dict[str, Path]:
-        return {name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()}
+        return {
+            name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()
+        }
 
 
 @dataclass(frozen=True)
@@ -123,7 +125,17 @@ def load_config(path: Path) -> Config:
         raise SvhdescError(f"{where(data, str(path))}: unknown top-level key(s) {sorted(unknown)}")
     defaults = {key: value for key, value in data.items() if key != "variants"}
     defaults.setdefault("coupled_limits", "error")
-    for section in ("hand", "arm", "mass", "contact", "transmissions", "simulation", "keyframes", "collision", "scene"):
+    for section in (
+        "hand",
+        "arm",
+        "mass",
+        "contact",
+        "transmissions",
+        "simulation",
+        "keyframes",
+        "collision",
+        "scene",
+    ):
         defaults.setdefault(section, {})
     _check_sections(defaults, str(path))
     variants = {}

@@ -160,6 +160,7 @@ class Robot:
     transmissions: tuple[Transmission, ...] = ()
     keyframes: tuple[Keyframe, ...] = ()
     sensors: tuple[ForceSensor, ...] = ()
+    excludes: tuple[tuple[str, str], ...] = ()  # link pairs that never collide with each other
     settings: dict = field(default_factory=dict, hash=False, compare=False)
 
     def link(self, name: str) -> Link:

@@ -14,6 +14,7 @@ from .ir import Robot
 from .packages import resolve_uri
 from .stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from .stages.assets import Assets
+from .stages.collisions import add_excludes
 from .stages.contact import add_contact
 from .stages.geometry import bake_meshes
 from .stages.inertials import add_inertials, link_solid
@@ -43,10 +44,9 @@ def compile_variant(variant: Variant, extra_packages: dict[str, Path]) -> Compil
     robot = add_contact(robot, variant.settings["contact"], variant.hand)
     robot = add_actuation(robot, variant.settings)
     robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
-    bounds = {
-        link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions
-    }
+    bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
     robot = add_force_sensor(robot, variant.hand, bounds)
+    robot = add_excludes(robot, assets, variant.settings)
     return Compiled(robot, assets, [*inputs, spec_path, *_mesh_sources(tree, packages, variant.xacro)])
 
 

@@ -90,7 +90,9 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     origin = _pose(element.find("origin"), where)
     mass = float(element.find("mass").get("value"))
     inertia = element.find("inertia")
-    ixx, ixy, ixz, iyy, iyz, izz = (float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+    ixx, ixy, ixz, iyy, iyz, izz = (
+        float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    )
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     if any(origin.rpy):  # the IR keeps tensors in the link frame
         rotation = rpy_matrix(origin.rpy)
@@ -110,7 +112,9 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path) 
             Link(
                 name=name,
                 inertial=_inertial(element.find("inertial"), where),
-                visuals=tuple(_geometry(v, name, materials, packages, source) for v in element.findall("visual")),
+                visuals=tuple(
+                    _geometry(v, name, materials, packages, source) for v in element.findall("visual")
+                ),
                 collisions=tuple(
                     _geometry(c, name, materials, packages, source) for c in element.findall("collision")
                 ),
@@ -144,8 +148,12 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path) 
                 parent=parent,
                 child=child,
                 origin=_pose(element.find("origin"), where),
-                axis=_floats(element.find("axis").get("xyz") if element.find("axis") is not None else None,
-                             3, (1.0, 0.0, 0.0), where),  # type: ignore[arg-type]
+                axis=_floats(
+                    element.find("axis").get("xyz") if element.find("axis") is not None else None,
+                    3,
+                    (1.0, 0.0, 0.0),
+                    where,
+                ),  # type: ignore[arg-type]
                 lower=attr(limit, "lower", 0.0),
                 upper=attr(limit, "upper", 0.0),
                 effort=attr(limit, "effort", 0.0),

@@ -21,8 +21,9 @@ def expand_xacro(
 
     Errors name file:line where it can be found.
     """
-    import xacro
     import xacro.substitution_args as subst
+
+    import xacro
 
     if not path.is_file():
         raise SvhdescError(f"{path}: Xacro file not found")
@@ -57,7 +58,9 @@ def expand_xacro(
         where = Path(xacro.filestack[-1]) if xacro.filestack else path
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         quoted = re.search(r"'([^']+)'", message)
-        raise SvhdescError(f"{_locate(where, quoted.group(1) if quoted else None)}: xacro: {message}") from None
+        raise SvhdescError(
+            f"{_locate(where, quoted.group(1) if quoted else None)}: xacro: {message}"
+        ) from None
     finally:
         subst._eval_find, subst._eval_dict["find"] = saved
     inputs = [path.resolve(), *(Path(f).resolve() for f in xacro.all_includes)]

@@ -14,7 +14,9 @@ CONFIG = REPO / "config" / "svhdesc.yaml"
 
 
 def snapshot(directory: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()
+    }
 
 
 @pytest.fixture
@@ -59,9 +61,10 @@ def configure(project: Path, edit: dict | None = None) -> Path:
 def test_malformed_xacro_names_file_and_line(out: Path, project: Path) -> None:
     source = project / "xacro" / "svh.xacro"
     lines = source.read_text().splitlines()
-    lines[40] = lines[40] + "<broken"
+    number = next(i for i, line in enumerate(lines) if '<xacro:macro name="svh_hand"' in line)
+    lines[number] = lines[number].replace("<xacro:macro", "<xacro:macro <")
     source.write_text("\n".join(lines))
-    message = fails_cleanly(out, "--config", str(configure(project)), match="svh.xacro:")
+    message = fails_cleanly(out, "--config", str(configure(project)), match=f"svh.xacro:{number + 1}:")
     assert "malformed XML" in message
 
 
@@ -124,7 +127,11 @@ def test_committed_generated_models_are_current() -> None:
 def test_list_and_info() -> None:
     listed = run_cli("list")
     assert listed.returncode == 0
-    assert [line.split()[0] for line in listed.stdout.splitlines()] == ["svh_right", "svh_left", "ur5_svh_right"]
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == [
+        "svh_right",
+        "svh_left",
+        "ur5_svh_right",
+    ]
     info = run_cli("info", "ur5_svh_right")
     assert info.returncode == 0, info.stderr
     assert "26 joints, 15 DoF (11 coupled), 15 actuators" in info.stdout
@@ -137,9 +144,18 @@ def test_vendor_description_builds_with_this_projects_spec(tmp_path: Path) -> No
 
     if not VENDOR_SVH.is_dir():
         pytest.skip("../shared/vendor is not beside this checkout")
-    result = run_cli("build", "svh_vendor_right", "--config", str(REPO / "config" / "vendor.yaml"),
-                     "--out", str(tmp_path), "--package", f"schunk_svh_driver={VENDOR_SVH}",
-                     "--package", f"ur_description={VENDOR_UR}")
+    result = run_cli(
+        "build",
+        "svh_vendor_right",
+        "--config",
+        str(REPO / "config" / "vendor.yaml"),
+        "--out",
+        str(tmp_path),
+        "--package",
+        f"schunk_svh_driver={VENDOR_SVH}",
+        "--package",
+        f"ur_description={VENDOR_UR}",
+    )
     assert result.returncode == 0, result.stderr
     assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr
     assert (tmp_path / "svh_vendor_right" / "svh_vendor_right.xml").is_file()

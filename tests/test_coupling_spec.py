@@ -25,7 +25,7 @@ GOOD_CHANNELS = """channels:
 def robot(upper: float = 2.0) -> Robot:
     names = ["base", "a", "b", "c", "d"]
     joints = [
-        Joint(f"h_{n}", "revolute", "base" if i == 0 else f"l{i-1}", f"l{i}", lower=0.0, upper=upper)
+        Joint(f"h_{n}", "revolute", "base" if i == 0 else f"l{i - 1}", f"l{i}", lower=0.0, upper=upper)
         for i, n in enumerate(["A", "B", "c", "d"])
     ]
     links = [Link("base")] + [Link(f"l{i}") for i in range(4)]
@@ -42,15 +42,27 @@ def write(tmp_path: Path, couplings: str) -> Path:
 def test_project_spec_has_nine_channels_in_driver_order_and_eleven_couplings() -> None:
     spec = load_spec(SPEC)
     assert [c.name for c in spec.channels] == [
-        "Thumb_Flexion", "Thumb_Opposition", "Index_Finger_Distal", "Index_Finger_Proximal",
-        "Middle_Finger_Distal", "Middle_Finger_Proximal", "Ring_Finger", "Pinky", "Finger_Spread",
+        "Thumb_Flexion",
+        "Thumb_Opposition",
+        "Index_Finger_Distal",
+        "Index_Finger_Proximal",
+        "Middle_Finger_Distal",
+        "Middle_Finger_Proximal",
+        "Ring_Finger",
+        "Pinky",
+        "Finger_Spread",
     ]
     assert len(spec.couplings) == 11
 
 
 def test_ratio_appears_once_in_the_sources() -> None:
-    tracked = subprocess.run(["git", "ls-files", "xacro", "config", "svhdesc", "tools"], cwd=REPO,
-                             capture_output=True, text=True, check=True).stdout.split()
+    tracked = subprocess.run(
+        ["git", "ls-files", "xacro", "config", "svhdesc", "tools"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
     hits = [f for f in tracked if "1.0454" in (REPO / f).read_text(errors="ignore")]
     assert hits == ["config/coupling.yaml"]
     assert (REPO / "config/coupling.yaml").read_text().count("1.0454") == 1
@@ -60,8 +72,14 @@ def test_ratio_appears_once_in_the_sources() -> None:
     ("couplings", "message"),
     [
         ("  - {joint: x, follows: A, poly: [0, 1]}\n", "unknown joint h_x"),
-        ("  - {joint: c, follows: A, poly: [0, 1]}\n  - {joint: c, follows: A, poly: [0, 1]}\n", "c duplicated"),
-        ("  - {joint: c, follows: A, poly: [0, 1]}\n  - {joint: c, follows: B, poly: [0, 1]}\n", "driven twice"),
+        (
+            "  - {joint: c, follows: A, poly: [0, 1]}\n  - {joint: c, follows: A, poly: [0, 1]}\n",
+            "c duplicated",
+        ),
+        (
+            "  - {joint: c, follows: A, poly: [0, 1]}\n  - {joint: c, follows: B, poly: [0, 1]}\n",
+            "driven twice",
+        ),
         ("  - {joint: B, follows: A, poly: [0, 1]}\n", "B is a channel"),
         ("  - {joint: c, follows: A, poly: [0, 1]}\n  - {joint: d, follows: c, poly: [0, 1]}\n", "a chain"),
         ("  - {joint: c, follows: d, poly: [0, 1]}\n  - {joint: d, follows: c, poly: [0, 1]}\n", "a cycle"),

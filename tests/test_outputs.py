@@ -46,8 +46,11 @@ def test_urdf_mimic_and_mjcf_equality_equal_the_spec(variant: str) -> None:
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_masses_follow_the_budget(variant: str) -> None:
     urdf = etree.parse(str(model_files(variant)[0]))
-    masses = {link.get("name"): float(link.find("inertial/mass").get("value"))
-              for link in urdf.findall("link") if link.find("inertial") is not None}
+    masses = {
+        link.get("name"): float(link.find("inertial/mass").get("value"))
+        for link in urdf.findall("link")
+        if link.find("inertial") is not None
+    }
     hand = sum(m for name, m in masses.items() if name.startswith(PREFIX[variant]))
     assert hand == pytest.approx(1.3, abs=1e-12)
     model = mujoco_model(variant)
@@ -68,8 +71,9 @@ def test_every_inertia_is_physical(variant: str) -> None:
     checked = 0
     for inertia in urdf.findall("link/inertial/inertia"):
         i = {k: float(v) for k, v in inertia.attrib.items()}
-        tensor = np.array([[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]],
-                           [i["ixz"], i["iyz"], i["izz"]]])
+        tensor = np.array(
+            [[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]], [i["ixz"], i["iyz"], i["izz"]]]
+        )
         a, b, c = np.linalg.eigvalsh(tensor)
         assert a > 0
         assert a + b >= c * (1 - 1e-9)
@@ -101,7 +105,9 @@ def test_keyframes_hold_the_thesis_poses_and_follow_the_spec(variant: str) -> No
                 assert variant.startswith("svh") and joint.endswith("_joint")
         for coupling in SPEC.couplings:
             channel = qpos[f"{prefix}_{coupling.channel}"]
-            assert qpos[f"{prefix}_{coupling.joint}"] == pytest.approx(polyval(coupling.coeffs, channel), abs=1e-12)
+            assert qpos[f"{prefix}_{coupling.joint}"] == pytest.approx(
+                polyval(coupling.coeffs, channel), abs=1e-12
+            )
         # The servos hold the keyframe: ctrl equals the actuated joints' positions.
         for a in range(model.nu):
             assert key.ctrl[a] == pytest.approx(qpos[model.joint(model.actuator_trnid[a, 0]).name])

@@ -79,8 +79,8 @@ r 50.3 at z 135.7; forearm tube r 37.7 at z 16.6; housing caps tilt about
 
 from __future__ import annotations
 
+import argparse
 import hashlib
-import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -161,7 +161,9 @@ def rbox(lo: Vec, hi: Vec, r: float, subdiv: int = 1) -> trimesh.Trimesh:
     if np.any(hi_ < lo_):
         raise ValueError(f"rbox {lo}..{hi} too small for radius {r}")
     ball = trimesh.creation.icosphere(subdivisions=subdiv, radius=r).vertices
-    corners = [np.array([x, y, z]) for x in (lo_[0], hi_[0]) for y in (lo_[1], hi_[1]) for z in (lo_[2], hi_[2])]
+    corners = [
+        np.array([x, y, z]) for x in (lo_[0], hi_[0]) for y in (lo_[1], hi_[1]) for z in (lo_[2], hi_[2])
+    ]
     pts = np.vstack([ball + c for c in corners])
     # pin the exact faces of the box so the extents are exact
     pts = np.clip(pts, lo, hi)
@@ -171,7 +173,9 @@ def rbox(lo: Vec, hi: Vec, r: float, subdiv: int = 1) -> trimesh.Trimesh:
 def box(lo: Vec, hi: Vec) -> trimesh.Trimesh:
     """Axis-aligned box."""
     lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
-    return trimesh.creation.box(extents=hi_ - lo_, transform=trimesh.transformations.translation_matrix((lo_ + hi_) / 2))
+    return trimesh.creation.box(
+        extents=hi_ - lo_, transform=trimesh.transformations.translation_matrix((lo_ + hi_) / 2)
+    )
 
 
 def union(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -224,7 +228,12 @@ def svh_e1() -> trimesh.Trimesh:
         ),
     ]
     for xc in (-25.0, 0.0):  # index (x = -25) and middle (x = 0) knuckles, axis at z = 110
-        parts.append(hull(cyl((xc, 0, 110.0), "y", -15.4, -8.0, 11.3, 32), box((xc - 11.0, -15.4, 95.0), (xc + 11.0, -8.0, 100.0))))
+        parts.append(
+            hull(
+                cyl((xc, 0, 110.0), "y", -15.4, -8.0, 11.3, 32),
+                box((xc - 11.0, -15.4, 95.0), (xc + 11.0, -8.0, 100.0)),
+            )
+        )
         parts.append(rbox((xc - 4.5, 10.5, 95.0), (xc + 4.5, 16.0, 119.0), 1.5))
     return union(*parts)
 
@@ -254,7 +263,9 @@ def svh_z() -> trimesh.Trimesh:
         rbox((-15.17, -9.5, 26.5), (15.17, 10.5, 32.0), 2.0),
     ]
     for x0, x1 in ((10.0, 15.17), (-15.17, -10.0)):
-        parts.append(hull(box((x0, -11.85, 26.5), (x1, 11.93, 34.0)), cyl((0, 0, 47.1), "x", x0, x1, 12.0, 32)))
+        parts.append(
+            hull(box((x0, -11.85, 26.5), (x1, 11.93, 34.0)), cyl((0, 0, 47.1), "x", x0, x1, 12.0, 32))
+        )
     return union(*parts)
 
 
@@ -274,7 +285,9 @@ def svh_b() -> trimesh.Trimesh:
         rbox((8.0, -13.24, -12.0), (14.0, 10.5, 12.0), 2.0),
         rbox((24.0, -10.0, -9.0), (36.5, 7.0, 9.0), 3.0),
     )
-    return diff(solid, box((-13.0, -15.0, -9.8), (9.0, 15.0, 9.8)), box((27.0, -15.0, -7.2), (40.0, 15.0, 7.2)))
+    return diff(
+        solid, box((-13.0, -15.0, -9.8), (9.0, 15.0, 9.8)), box((27.0, -15.0, -7.2), (40.0, 15.0, 7.2))
+    )
 
 
 def svh_c() -> trimesh.Trimesh:
@@ -291,7 +304,13 @@ def svh_virtual(up: bool) -> trimesh.Trimesh:
         cyl((0, 0, 0), "z", -9.24, 10.5, 11.5, 48),  # D-shaped plan, r 11.5
         box((-8.0, -12.0, -10.0), (12.0, 12.0, 11.0)),
         hull_points(  # lower front edge bevelled (profile in x-z)
-            np.array([[x, y, z] for x, z in ((-9.0, -9.24), (3.0, -9.24), (12.0, 0.0), (12.0, 11.0), (-9.0, 11.0)) for y in (-12.0, 12.0)])
+            np.array(
+                [
+                    [x, y, z]
+                    for x, z in ((-9.0, -9.24), (3.0, -9.24), (12.0, 0.0), (12.0, 11.0), (-9.0, 11.0))
+                    for y in (-12.0, 12.0)
+                ]
+            )
         ),
     )
     slot = union(  # arched slot for the proximal phalanx, open at the back (x < -5)
@@ -375,7 +394,9 @@ SVH_SYMMETRY = {
 # --------------------------------------------------------------------------
 
 
-def _tilted_cap(cx: float, r: float, z0: float, z_top: Callable[[np.ndarray], np.ndarray], n: int = 64) -> np.ndarray:
+def _tilted_cap(
+    cx: float, r: float, z0: float, z_top: Callable[[np.ndarray], np.ndarray], n: int = 64
+) -> np.ndarray:
     """Rim points of a z-axis housing at x = cx whose top is z_top(x, y)."""
     ring = _circle((cx, 0, 0), "z", r, n)
     inner = _circle((cx, 0, 0), "z", r - 12.0, n)
@@ -391,7 +412,12 @@ def _tilted_cap(cx: float, r: float, z0: float, z_top: Callable[[np.ndarray], np
 def ur_base() -> trimesh.Trimesh:
     """Mounting plate r 73.5 with the r 58 bearing ring and the cable outlet (+y)."""
     return union(
-        lathe((0, 0, 0), "z", [(0.0, 72.5), (1.0, 73.5), (16.0, 73.5), (17.0, 72.5), (17.0, 58.0), (24.0, 58.0)], n=64),
+        lathe(
+            (0, 0, 0),
+            "z",
+            [(0.0, 72.5), (1.0, 73.5), (16.0, 73.5), (17.0, 72.5), (17.0, 58.0), (24.0, 58.0)],
+            n=64,
+        ),
         rbox((-5.1, 60.0, 3.3), (5.1, 110.0, 13.7), 1.5),
     )
 
@@ -413,7 +439,12 @@ def ur_upper_arm() -> trimesh.Trimesh:
 
 def ur_forearm() -> trimesh.Trimesh:
     """Forearm: elbow housing with a rounded underside, tube r 37.7, wrist housing."""
-    elbow = lathe((0, 0, 0), "z", [(-10.0, 0.0), (-8.0, 10.0), (5.0, 30.0), (27.5, 50.0), (45.0, 58.0), (68.0, 58.0), (71.0, 55.0)], n=64)
+    elbow = lathe(
+        (0, 0, 0),
+        "z",
+        [(-10.0, 0.0), (-8.0, 10.0), (5.0, 30.0), (27.5, 50.0), (45.0, 58.0), (68.0, 58.0), (71.0, 55.0)],
+        n=64,
+    )
     tube = cyl((0, 0, 16.6), "x", -392.25, 0.0, 37.7, n=48)
     wrist = lathe((-392.25, 0, 0), "z", [(-40.7, 30.0), (-34.0, 38.5), (64.0, 38.5)], n=48)
     return union(elbow, tube, wrist)
@@ -431,7 +462,12 @@ def ur_wrist(sign: float, zlo: float) -> trimesh.Trimesh:
 def ur_wrist_3() -> trimesh.Trimesh:
     """Wrist 3: housing r 37.5, tool flange r 31.5 at z 0, connector toward -y."""
     return union(
-        lathe((0, 0, 0), "z", [(-34.5, 36.0), (-33.0, 37.5), (-8.0, 37.5), (-6.5, 36.0), (-6.5, 31.5), (0.0, 31.5)], n=64),
+        lathe(
+            (0, 0, 0),
+            "z",
+            [(-34.5, 36.0), (-33.0, 37.5), (-8.0, 37.5), (-6.5, 36.0), (-6.5, 31.5), (0.0, 31.5)],
+            n=64,
+        ),
         rbox((-5.0, -43.0, -24.0), (5.0, -30.0, -15.0), 1.5),
     )
 
@@ -522,7 +558,9 @@ def check_symmetry(mesh: trimesh.Trimesh, axis: str, name: str, tol: float = 1e-
 def collada_bytes(mesh: trimesh.Trimesh, name: str, rgba: Sequence[int]) -> bytes:
     """Export with trimesh, then make the document reproducible and Z-up in metres."""
     m = mesh.copy()
-    m.visual = trimesh.visual.ColorVisuals(m, face_colors=np.tile(np.asarray(rgba, np.uint8), (len(m.faces), 1)))
+    m.visual = trimesh.visual.ColorVisuals(
+        m, face_colors=np.tile(np.asarray(rgba, np.uint8), (len(m.faces), 1))
+    )
     raw = trimesh.exchange.dae.export_collada(m)
     root = etree.fromstring(raw, etree.XMLParser(remove_blank_text=True))
     ns = root.nsmap[None]
@@ -560,11 +598,11 @@ def collada_bytes(mesh: trimesh.Trimesh, name: str, rgba: Sequence[int]) -> byte
     return etree.tostring(root, xml_declaration=True, encoding="utf-8", pretty_print=True)
 
 
-def build(only: Sequence[str] = ()) -> dict[str, trimesh.Trimesh]:
-    """Build, check and write all meshes; return them keyed by 'svh/<link>' etc."""
+def build(out: Path = OUT, only: Sequence[str] = (), quiet: bool = False) -> dict[str, trimesh.Trimesh]:
+    """Build, check and write the meshes under ``out``; return them keyed by 'svh/<link>' etc."""
     built: dict[str, trimesh.Trimesh] = {}
     for robot, table, colours in (("svh", SVH, SVH_COLOUR), ("ur5", UR5, UR5_COLOUR)):
-        (OUT / robot).mkdir(parents=True, exist_ok=True)
+        (out / robot).mkdir(parents=True, exist_ok=True)
         for name, make in table.items():
             key = f"{robot}/{name}"
             if only and key not in only and name not in only:
@@ -576,12 +614,21 @@ def build(only: Sequence[str] = ()) -> dict[str, trimesh.Trimesh]:
             if robot == "svh" and name in SVH_SYMMETRY:
                 check_symmetry(mesh, SVH_SYMMETRY[name], key)
             data = collada_bytes(mesh, name, colours[name])
-            (OUT / robot / f"{name}.dae").write_bytes(data)
+            (out / robot / f"{name}.dae").write_bytes(data)
             built[key] = mesh
-            digest = hashlib.sha256(data).hexdigest()[:12]
-            print(f"{key:16s} {len(mesh.faces):5d} tris  {mesh.volume * 1e6:8.2f} cm3  {digest}")
+            if not quiet:
+                digest = hashlib.sha256(data).hexdigest()[:12]
+                print(f"{key:16s} {len(mesh.faces):5d} tris  {mesh.volume * 1e6:8.2f} cm3  {digest}")
     return built
 
 
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=OUT, help="output folder (default: meshes/)")
+    parser.add_argument("only", nargs="*", help="links to build, e.g. svh/e1 or wrist_3 (default: all)")
+    args = parser.parse_args(argv)
+    build(args.out, args.only)
+
+
 if __name__ == "__main__":
-    build(sys.argv[1:])
+    main()

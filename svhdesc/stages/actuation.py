@@ -47,25 +47,41 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
     actuators = []
     for channel in robot.channels:
         actuators.append(
-            Actuator(channel.joint, channel.joint, channel.lower, channel.upper, channel.effort,
-                     float(hand["kp"]), float(hand.get("dampratio", 1.0)))
+            Actuator(
+                channel.joint,
+                channel.joint,
+                channel.lower,
+                channel.upper,
+                channel.effort,
+                float(hand["kp"]),
+                float(hand.get("dampratio", 1.0)),
+            )
         )
     names = arm_joints(robot, arm)
     kps = _per_joint(arm.get("kp", 1000.0), len(names), "arm.kp") if names else []
     for name, kp in zip(names, kps):
         j = joints[name]
-        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0))))
+        actuators.append(
+            Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0)))
+        )
     # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's.
     updated = []
     for joint in robot.joints:
         if joint.name in channel_of or joint.name in followers:
             channel = channel_of[followers.get(joint.name, joint.name)]
-            joint = replace(joint, effort=channel.effort, velocity=channel.velocity,
-                            damping=float(hand.get("joint_damping", 0.0)),
-                            armature=float(hand.get("joint_armature", 0.0)))
+            joint = replace(
+                joint,
+                effort=channel.effort,
+                velocity=channel.velocity,
+                damping=float(hand.get("joint_damping", 0.0)),
+                armature=float(hand.get("joint_armature", 0.0)),
+            )
         elif joint.name in names:
-            joint = replace(joint, damping=float(arm.get("joint_damping", 0.0)),
-                            armature=float(arm.get("joint_armature", 0.0)))
+            joint = replace(
+                joint,
+                damping=float(arm.get("joint_damping", 0.0)),
+                armature=float(arm.get("joint_armature", 0.0)),
+            )
         updated.append(joint)
     transmissions = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
     return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions)
@@ -82,8 +98,10 @@ def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, opt
             joint = f"{hand_prefix}_{key}" if key in channel_names else key
             if joint in movable:
                 if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
-                    raise SvhdescError(f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; "
-                                       "give its channel instead")
+                    raise SvhdescError(
+                        f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; "
+                        "give its channel instead"
+                    )
                 positions[joint] = float(value)
             elif key not in optional and key not in channel_names:
                 raise SvhdescError(f"{where(values, 'keyframes')}: keyframe {name}: unknown joint {key}")

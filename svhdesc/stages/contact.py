@@ -11,7 +11,9 @@ from ..ir import Contact, Robot
 
 def fingertip_links(robot: Robot, hand: dict[str, Any]) -> list[str]:
     names = {link.name for link in robot.links}
-    return [f"{hand['prefix']}_{tip}" for tip in hand.get("fingertips", []) if f"{hand['prefix']}_{tip}" in names]
+    return [
+        f"{hand['prefix']}_{tip}" for tip in hand.get("fingertips", []) if f"{hand['prefix']}_{tip}" in names
+    ]
 
 
 def add_contact(robot: Robot, contact: dict[str, Any], hand: dict[str, Any]) -> Robot:
