@@ -1,4 +1,4 @@
-"""Command line: ``svhdesc build|list|info``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render``. Bad input: one line on stderr, exit code 2."""
 
 from __future__ import annotations
 
@@ -37,11 +37,17 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
 
 
 config_option = click.option(
-    "--config", "config_path", type=click.Path(path_type=Path), default=None,
+    "--config",
+    "config_path",
+    type=click.Path(path_type=Path),
+    default=None,
     help="Build configuration (default: the repository's config/svhdesc.yaml).",
 )
 package_option = click.option(
-    "--package", "packages", multiple=True, metavar="NAME=DIR",
+    "--package",
+    "packages",
+    multiple=True,
+    metavar="NAME=DIR",
     help="Resolve $(find NAME) and package://NAME to DIR (repeatable; ROS_PACKAGE_PATH is searched too).",
 )
 
@@ -63,13 +69,22 @@ def main() -> None:
 
 @main.command("build")
 @click.argument("variants", nargs=-1)
-@click.option("--out", type=click.Path(path_type=Path), default=None, help="Output directory (default: generated/).")
+@click.option(
+    "--out", type=click.Path(path_type=Path), default=None, help="Output directory (default: generated/)."
+)
 @config_option
 @package_option
-@click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
+@click.option(
+    "--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ."
+)
 @_friendly
-def build_command(variants: tuple[str, ...], out: Path | None, config_path: Path | None,
-                  packages: tuple[str, ...], check: bool) -> None:
+def build_command(
+    variants: tuple[str, ...],
+    out: Path | None,
+    config_path: Path | None,
+    packages: tuple[str, ...],
+    check: bool,
+) -> None:
     """Build VARIANTS (all by default) into OUT/<variant>/."""
     from . import build as builder
 
@@ -113,8 +128,10 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     robot = compile_variant(config.select([variant])[0], package_dirs).robot
     movable = [j for j in robot.joints if j.movable]
     coupled = [j for j in movable if j.mimic]
-    click.echo(f"{robot.name}: {len(movable)} joints, {len(movable) - len(coupled)} DoF "
-               f"({len(coupled)} coupled), {len(robot.actuators)} actuators")
+    click.echo(
+        f"{robot.name}: {len(movable)} joints, {len(movable) - len(coupled)} DoF "
+        f"({len(coupled)} coupled), {len(robot.actuators)} actuators"
+    )
     total = sum(link.inertial.mass for link in robot.links if link.inertial)
     click.echo(f"mass: {total:.4f} kg total")
     for link in robot.links:
@@ -122,7 +139,9 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
             click.echo(f"  {link.name:<28} {link.inertial.mass:9.4f} kg")
     click.echo("actuators:")
     for act in robot.actuators:
-        click.echo(f"  {act.name:<36} [{act.lower:+.4f}, {act.upper:+.4f}] rad  {act.effort:g} N m  kp {act.kp:g}")
+        click.echo(
+            f"  {act.name:<36} [{act.lower:+.4f}, {act.upper:+.4f}] rad  {act.effort:g} N m  kp {act.kp:g}"
+        )
     rows, cols, matrix = coupling_matrix(robot)
     if rows:
         prefix = robot.channels[0].joint[: -len(robot.channels[0].name)]
@@ -130,7 +149,148 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
         click.echo("coupling matrix S_m (joints x channels):")
         click.echo(" " * 26 + " ".join(f"{c[:8]:>8}" for c in short))
         for name, row in zip(rows, matrix):
-            click.echo(f"  {name.removeprefix(prefix):<24}" + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row))
+            click.echo(
+                f"  {name.removeprefix(prefix):<24}"
+                + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row)
+            )
+
+
+@main.command("validate")
+@click.argument("variants", nargs=-1)
+@click.option(
+    "--urdf",
+    "urdf_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Validate this URDF (with --mjcf) instead of built variants.",
+)
+@click.option(
+    "--mjcf",
+    "mjcf_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="The MJCF to validate with --urdf.",
+)
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Where the built variants are (default: generated/).",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Also write the full report (every check with its figures) as JSON.",
+)
+@click.option(
+    "--plots",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Write PNG time series of the contact-stability run to this directory.",
+)
+@click.option(
+    "--checks",
+    "checks",
+    multiple=True,
+    metavar="NAME[,NAME]",
+    help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
+    "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, self_collision, "
+    "contact_stability; or groups: parsers, mass, coupling. Default: all.",
+)
+@click.option(
+    "--samples",
+    type=click.IntRange(min=1),
+    default=100,
+    show_default=True,
+    help="Random configurations for the kinematics check.",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of every random draw.")
+@click.option(
+    "--allow-missing-tools",
+    is_flag=True,
+    help="Let checks that could not run for want of an external tool (check_urdf, ign sdf) pass; "
+    "without it they fail the run.",
+)
+@config_option
+@_friendly
+def validate_command(
+    variants: tuple[str, ...],
+    urdf_path: Path | None,
+    mjcf_path: Path | None,
+    out: Path | None,
+    json_path: Path | None,
+    plots: Path | None,
+    checks: tuple[str, ...],
+    samples: int,
+    seed: int,
+    allow_missing_tools: bool,
+    config_path: Path | None,
+) -> None:
+    """Validate built VARIANTS (all under OUT by default) or one --urdf/--mjcf pair.
+
+    Prints a table per variant (check, measured value, bound, status). Exit 0 when every check
+    passes, 1 when any fails or could not run (see --allow-missing-tools), 2 on bad input.
+    Mass bounds come from the configuration declaring the model's variant: --config, else
+    config/svhdesc.yaml or the config named in the variant's manifest.json.
+    """
+    from .paths import generated_dir
+    from .validate import Options, built_variants, select_checks, validate_files
+    from .validate.report import render_report, write_json
+
+    selected = select_checks(checks)
+    if (urdf_path is None) != (mjcf_path is None):
+        raise SvhdescError("--urdf and --mjcf go together")
+    if urdf_path is not None and mjcf_path is not None:
+        if variants:
+            raise SvhdescError("give either VARIANTS or --urdf/--mjcf, not both")
+        for path in (urdf_path, mjcf_path):
+            if not path.is_file():
+                raise SvhdescError(f"{path}: no such file")
+        pairs = [(urdf_path, mjcf_path)]
+    else:
+        pairs = built_variants(out or generated_dir(), variants)
+    options = Options(seed=seed, samples=samples, plots=plots)
+    reports = []
+    for urdf, mjcf in pairs:
+        report = validate_files(urdf, mjcf, options, selected, config_path)
+        click.echo(render_report(report) + "\n")
+        reports.append(report)
+    if json_path is not None:
+        write_json(reports, json_path, allow_missing_tools)
+    failed = [(r.name, [c.name for c in r.failed(allow_missing_tools)]) for r in reports]
+    failed = [(name, names) for name, names in failed if names]
+    if failed:
+        for name, names in failed:
+            click.echo(f"{name}: failed: {', '.join(names)}", err=True)
+        sys.exit(1)
+    click.echo(f"all checks passed ({len(reports)} model(s))")
+
+
+@main.command("render")
+@click.argument("variant")
+@click.option("--out", "out_file", type=click.Path(path_type=Path), required=True, help="PNG file to write.")
+@click.option("--keyframe", default=None, help="Pose to draw (default: 'home' if the model has it).")
+@click.option("--size", default="640x480", show_default=True, metavar="WxH", help="Image size in pixels.")
+@_friendly
+def render_command(variant: str, out_file: Path, keyframe: str | None, size: str) -> None:
+    """Render VARIANT's scene.xml offscreen (visual geoms only) to a PNG.
+
+    VARIANT is a built variant's name under generated/, or a variant directory or XML file. The
+    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa.
+    """
+    from .paths import generated_dir
+    from .validate.render import parse_size, render
+
+    dimensions = parse_size(size)
+    target = Path(variant)
+    if not target.exists():
+        target = generated_dir() / variant
+        if not target.is_dir():
+            raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
+    backend = render(target, out_file, keyframe, dimensions)
+    click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,266 @@
+"""One URDF + MJCF pair to validate: both files read once, the URDF's facts in plain numbers."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from lxml import etree
+
+from ..config import Variant, load_config
+from ..errors import SvhdescError
+from ..paths import DEFAULT_CONFIG, REPO_DIR
+
+
+def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
+    if text is None or not text.split():
+        return np.array(default, dtype=float)
+    return np.array([float(v) for v in text.split()], dtype=float)
+
+
+def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    name: str
+    type: str
+    parent: str
+    child: str
+    xyz: np.ndarray
+    rpy: np.ndarray
+    axis: np.ndarray
+    lower: float | None
+    upper: float | None
+    mimic: tuple[str, float, float] | None  # (channel joint, multiplier, offset)
+
+    @property
+    def movable(self) -> bool:
+        return self.type in {"revolute", "continuous", "prismatic"}
+
+
+@dataclass(frozen=True)
+class UrdfInertial:
+    mass: float
+    com: np.ndarray
+    tensor: np.ndarray  # about the COM, in the link frame (the inertial origin's rpy applied)
+
+
+@dataclass
+class UrdfFacts:
+    """What the checks need from a URDF, read with lxml (no parser library's interpretation)."""
+
+    name: str
+    links: dict[str, UrdfInertial | None]
+    joints: dict[str, UrdfJoint]
+    transmissions: dict[str, list[str]]  # transmission name -> joint names
+    # Gazebo mimic plugin: coupled joint -> (channel, multiplier, offset)
+    mimic_plugins: dict[str, tuple[str, float, float]]
+    meshes: list[str]
+
+    @property
+    def root(self) -> str:
+        children = {j.child for j in self.joints.values()}
+        roots = [name for name in self.links if name not in children]
+        return roots[0] if roots else next(iter(self.links))
+
+
+def read_urdf_facts(path: Path) -> UrdfFacts:
+    root = etree.parse(str(path)).getroot()
+    if root.tag != "robot":
+        raise ValueError(f"root element is <{root.tag}>, not <robot>")
+    links: dict[str, UrdfInertial | None] = {}
+    for link in root.findall("link"):
+        inertial = link.find("inertial")
+        if inertial is None:
+            links[link.get("name")] = None
+            continue
+        origin = inertial.find("origin")
+        xyz = _floats(origin.get("xyz") if origin is not None else None, (0, 0, 0))
+        rpy = _floats(origin.get("rpy") if origin is not None else None, (0, 0, 0))
+        mass_el, inertia = inertial.find("mass"), inertial.find("inertia")
+        mass = float(mass_el.get("value")) if mass_el is not None else 0.0
+        keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        values = [float(inertia.get(k, 0.0)) if inertia is not None else 0.0 for k in keys]
+        ixx, ixy, ixz, iyy, iyz, izz = values
+        tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        rotation = rpy_matrix(rpy)
+        links[link.get("name")] = UrdfInertial(mass, xyz, rotation @ tensor @ rotation.T)
+    joints = {}
+    for joint in root.findall("joint"):
+        origin, axis, limit, mimic = (joint.find(t) for t in ("origin", "axis", "limit", "mimic"))
+        lower = upper = None
+        if limit is not None and joint.get("type") != "continuous":
+            lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
+        mimic_tuple = None
+        if mimic is not None:
+            multiplier, offset = float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0))
+            mimic_tuple = (mimic.get("joint"), multiplier, offset)
+        joints[joint.get("name")] = UrdfJoint(
+            name=joint.get("name"),
+            type=joint.get("type"),
+            parent=joint.find("parent").get("link"),
+            child=joint.find("child").get("link"),
+            xyz=_floats(origin.get("xyz") if origin is not None else None, (0, 0, 0)),
+            rpy=_floats(origin.get("rpy") if origin is not None else None, (0, 0, 0)),
+            axis=_floats(axis.get("xyz") if axis is not None else None, (1, 0, 0)),
+            lower=lower,
+            upper=upper,
+            mimic=mimic_tuple,
+        )
+    transmissions = {
+        t.get("name", ""): [j.get("name") for j in t.findall("joint")] for t in root.findall("transmission")
+    }
+    plugins = {}
+    for plugin in root.iter("plugin"):
+        mimic_joint, channel = plugin.findtext("mimicJoint"), plugin.findtext("joint")
+        if mimic_joint and channel:
+            plugins[mimic_joint.strip()] = (
+                channel.strip(),
+                float(plugin.findtext("multiplier") or 1.0),
+                float(plugin.findtext("offset") or 0.0),
+            )
+    meshes = [m.get("filename", "") for m in root.iter("mesh")]
+    return UrdfFacts(root.get("name", ""), links, joints, transmissions, plugins, meshes)
+
+
+@dataclass
+class ModelPair:
+    """A URDF and an MJCF that claim to describe the same robot. Load errors are kept, not raised:
+    the check that needs a file reports it."""
+
+    name: str
+    urdf_path: Path
+    mjcf_path: Path
+    scene_path: Path | None = None
+    urdf: UrdfFacts | None = None
+    urdf_error: str | None = None
+    model: Any = None  # mujoco.MjModel
+    mjcf_error: str | None = None
+    variant: Variant | None = None  # the configuration that built it, when known
+
+
+def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_path: Path | None = None) -> ModelPair:
+    import mujoco
+
+    pair = ModelPair(name or mjcf_path.stem, urdf_path, mjcf_path)
+    scene = mjcf_path.parent / "scene.xml"
+    pair.scene_path = scene if scene.is_file() else None
+    try:
+        pair.urdf = read_urdf_facts(urdf_path)
+    except (OSError, etree.XMLSyntaxError, ValueError, TypeError, AttributeError) as exc:
+        pair.urdf_error = f"{type(exc).__name__}: {exc}"
+    try:
+        pair.model = mujoco.MjModel.from_xml_path(str(mjcf_path))
+    except (ValueError, OSError) as exc:
+        pair.mjcf_error = str(exc).strip().replace("\n", " ")
+    model_name = _mjcf_model_name(mjcf_path) or pair.name
+    if name is None:
+        pair.name = model_name
+    pair.variant = configured_variant(model_name, mjcf_path, config_path)
+    return pair
+
+
+def _mjcf_model_name(path: Path) -> str | None:
+    try:
+        return etree.parse(str(path)).getroot().get("model")
+    except (OSError, etree.XMLSyntaxError):
+        return None
+
+
+def configured_variant(model_name: str, mjcf_path: Path, config_path: Path | None) -> Variant | None:
+    """The variant of that name in --config, else in the default config or a config the build manifest
+    names (package://svhdesc/config/...). None for a pair no configuration describes."""
+    candidates = [config_path] if config_path else [DEFAULT_CONFIG, *_manifest_configs(mjcf_path.parent)]
+    for candidate in candidates:
+        try:
+            config = load_config(candidate)
+        except SvhdescError:
+            continue
+        if model_name in config.variants:
+            return config.variants[model_name]
+    return None
+
+
+def _manifest_configs(directory: Path) -> list[Path]:
+    manifest = directory / "manifest.json"
+    try:
+        inputs = json.loads(manifest.read_text())["inputs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    paths = []
+    for uri in inputs:
+        if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
+            path = REPO_DIR / uri.removeprefix("package://svhdesc/")
+            if path.is_file() and path != DEFAULT_CONFIG:
+                paths.append(path)
+    return paths
+
+
+# --- MJCF facts from the compiled model ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Equality:
+    name: str
+    joint: str  # coupled (joint1)
+    channel: str  # leader (joint2)
+    coeffs: tuple[float, ...]  # c0..c4
+
+
+def joint_equalities(model: Any) -> list[Equality]:
+    import mujoco
+
+    result = []
+    for i in range(model.neq):
+        if int(model.eq_type[i]) != int(mujoco.mjtEq.mjEQ_JOINT) or model.eq_obj2id[i] < 0:
+            continue
+        result.append(
+            Equality(
+                model.eq(i).name,
+                model.joint(int(model.eq_obj1id[i])).name,
+                model.joint(int(model.eq_obj2id[i])).name,
+                tuple(float(c) for c in model.eq_data[i, :5]),
+            )
+        )
+    return result
+
+
+def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
+    """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
+    import mujoco
+
+    # Compare as ints: numpy scalars and MuJoCo's enums do not meet in a tuple's `in`.
+    joint_kinds = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
+    result = {}
+    for i in range(model.nu):
+        if int(model.actuator_trntype[i]) not in joint_kinds:
+            continue
+        joint = int(model.actuator_trnid[i, 0])
+        if model.actuator_ctrllimited[i]:
+            low, high = model.actuator_ctrlrange[i]
+        else:
+            low, high = model.jnt_range[joint]
+        result[model.joint(joint).name] = (float(low), float(high))
+    return result
+
+
+def scalar_joints(model: Any) -> list[int]:
+    """Hinge and slide joints: one qpos each, what a URDF revolute/prismatic joint becomes."""
+    import mujoco
+
+    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+    return [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]

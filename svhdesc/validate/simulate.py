@@ -1,0 +1,112 @@
+"""Checks 1 and 2a: the MJCF survives random position targets; coupled joints track their polynomial."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .options import Options
+from .pair import ModelPair, joint_equalities
+from .report import FAIL, Check, fmt, not_run, verdict
+
+DURATION = 2.0  # s of simulated time
+TARGET_PERIOD = 0.1  # s between new random targets
+COUPLING_TOL = 1e-3  # rad
+
+
+def warning_counts(data: object) -> dict[str, int]:
+    import mujoco
+
+    members = mujoco.mjtWarning.__members__.items()
+    counts = {name: int(data.warning[int(v)].number) for name, v in members if int(v) < len(data.warning)}
+    return {name: n for name, n in counts.items() if n}
+
+
+def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
+    """Random targets uniformly across each actuator's ctrlrange, a new one every 0.1 s, from a seeded RNG."""
+    import mujoco
+
+    sim_bound, coupling_bound = "compiles, 0 warnings, no NaN", f"<= {COUPLING_TOL:g} rad"
+    if pair.model is None:
+        return [
+            Check("simulate", FAIL, "does not compile", sim_bound, pair.mjcf_error or ""),
+            not_run("coupling_tracking", "the MJCF does not compile", coupling_bound),
+        ]
+    model = pair.model
+    data = mujoco.MjData(model)
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    if home >= 0:
+        mujoco.mj_resetDataKeyframe(model, data, home)
+    rng = np.random.default_rng(options.seed)
+    low, high = model.actuator_ctrlrange.T.copy()
+    unlimited = model.actuator_ctrllimited == 0
+    low[unlimited], high[unlimited] = -1.0, 1.0  # an unlimited actuator gets a unit range
+    steps = int(round(DURATION / model.opt.timestep))
+    period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
+    equalities = joint_equalities(model)
+    coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
+    leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
+    coeffs = np.zeros((len(equalities), 5))
+    for i, e in enumerate(equalities):
+        coeffs[i, : len(e.coeffs)] = e.coeffs
+    worst = np.zeros(len(equalities))
+    nan_at = None
+    for step in range(steps):
+        if step % period == 0:
+            data.ctrl[:] = rng.uniform(low, high)
+        mujoco.mj_step(model, data)
+        if not all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc)):
+            nan_at = step * model.opt.timestep
+            break
+        if len(equalities):
+            q = data.qpos[leaders]
+            expected = coeffs[:, 4].copy()
+            for k in (3, 2, 1, 0):  # Horner
+                expected = expected * q + coeffs[:, k]
+            np.maximum(worst, np.abs(data.qpos[coupled] - expected), out=worst)
+    warnings = warning_counts(data)
+    ok = not warnings and nan_at is None
+    detail = []
+    if warnings:
+        detail.append("warnings " + ", ".join(f"{k} x{v}" for k, v in warnings.items()))
+    if nan_at is not None:
+        detail.append(f"NaN at t = {nan_at:.3f} s")
+    measured = f"{sum(warnings.values())} warnings, {'NaN' if nan_at is not None else 'no NaN'}"
+    summary = f"{DURATION:g} s at dt {model.opt.timestep:g} s, {model.nu} actuators"
+    checks = [
+        Check(
+            "simulate",
+            verdict(ok),
+            measured,
+            sim_bound,
+            "; ".join(detail) or summary,
+            {
+                "warnings": warnings,
+                "nan_at_s": nan_at,
+                "simulated_s": DURATION,
+                "timestep": model.opt.timestep,
+                "seed": options.seed,
+            },
+        )
+    ]
+    if not equalities:
+        checks.append(not_run("coupling_tracking", "the MJCF has no joint equalities", coupling_bound))
+        return checks
+    errors = {e.joint: float(w) for e, w in zip(equalities, worst, strict=True)}
+    worst_joint = max(errors, key=errors.get)  # type: ignore[arg-type]
+    bad = {k: v for k, v in errors.items() if v > COUPLING_TOL}
+    detail_text = (
+        f"beyond the bound: {', '.join(f'{k} {v:.3g}' for k, v in bad.items())}" if bad else f"worst {worst_joint}"
+    )
+    if nan_at is not None:
+        detail_text += f" (run stopped at NaN, t = {nan_at:.3f} s)"
+    checks.append(
+        Check(
+            "coupling_tracking",
+            verdict(not bad and nan_at is None),
+            f"{fmt(errors[worst_joint])} rad",
+            coupling_bound,
+            detail_text,
+            {"max_error_rad": errors},
+        )
+    )
+    return checks
