@@ -86,6 +86,8 @@ class Joint:
     damping: float = 0.0
     friction: float = 0.0
     armature: float = 0.0
+    limit_margin: float = 0.0  # MuJoCo: limit active within this distance (no on/off chatter at the limit)
+    limit_solref: tuple[float, float] | None = None
     mimic: Mimic | None = None
     source: str = ""  # file:line of the definition, for error messages
 

@@ -9,7 +9,7 @@ packages=(python3 python3-venv python3-dev git)
 if [ "${1:-}" = test ]; then
   extra=test
   # urdfdom's check_urdf, Gazebo's sdformat (ign sdf), offscreen GL for `svhdesc render`.
-  packages+=(liburdfdom-tools ignition-tools libsdformat9-dev libosmesa6 libegl1 libgl1 libglvnd0)
+  packages+=(liburdfdom-tools ignition-tools libsdformat-dev libegl1 libgl1-mesa-dri libosmesa6)
 fi
 missing=()
 for p in "${packages[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done

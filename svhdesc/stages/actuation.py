@@ -69,12 +69,15 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
     for joint in robot.joints:
         if joint.name in channel_of or joint.name in followers:
             channel = channel_of[followers.get(joint.name, joint.name)]
+            solref = hand.get("limit_solref")
             joint = replace(
                 joint,
                 effort=channel.effort,
                 velocity=channel.velocity,
                 damping=float(hand.get("joint_damping", 0.0)),
                 armature=float(hand.get("joint_armature", 0.0)),
+                limit_margin=float(hand.get("limit_margin", 0.0)),
+                limit_solref=(float(solref[0]), float(solref[1])) if solref else None,
             )
         elif joint.name in names:
             joint = replace(

@@ -75,9 +75,11 @@ def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefi
     explicit_mass = dict(mass.get("links") or {})
     solids = {link.name: link_solid(link, assets) for link in robot.links if link.has_geometry}
     masses: dict[str, float] = {n: float(m) for n, m in explicit_mass.items() if n in solids}
+    tiny = needs_tiny_mass(robot) - set(explicit_full)
+    masses.update({name: TINY_MASS for name in tiny})
     for budget in mass.get("budgets") or []:
         pattern = str(budget["links"]).format(hand=hand_prefix)
-        members = [n for n in solids if fnmatch.fnmatchcase(n, pattern)]
+        members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
         fixed = sum(masses.get(n, 0.0) for n in members)
         free = [n for n in members if n not in masses]
         remaining = float(budget["total"]) - fixed
@@ -101,29 +103,24 @@ def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefi
                     f"link {link.name} has geometry but no mass: add it to a budget or mass.links"
                 )
             inertial = cylinder_inertial(solids[link.name], masses[link.name])
+        elif link.name in tiny:
+            inertial = TINY_INERTIAL
         else:
             inertial = None
         if inertial is not None:
             check_inertial(inertial, f"link {link.name}")
         links.append(replace(link, inertial=inertial))
-    return _massless_moving_links(replace(robot, links=tuple(links)))
-
-
-def _massless_moving_links(robot: Robot) -> Robot:
-    """A geometry-less link that moves on its own joint must carry a tiny valid mass in MuJoCo."""
-    moving = {j.child for j in robot.joints if j.movable}
-    subtree_mass: dict[str, float] = {}
-
-    def mass_below(name: str) -> float:
-        if name not in subtree_mass:
-            link = robot.link(name)
-            own = link.inertial.mass if link.inertial else 0.0
-            subtree_mass[name] = own + sum(mass_below(j.child) for j in robot.child_joints(name))
-        return subtree_mass[name]
-
-    links = []
-    for link in robot.links:
-        if link.inertial is None and link.name in moving and mass_below(link.name) == 0.0:
-            link = replace(link, inertial=Inertial(1e-4, (0.0, 0.0, 0.0), (1e-8, 0.0, 0.0, 1e-8, 0.0, 1e-8)))
-        links.append(link)
     return replace(robot, links=tuple(links))
+
+
+TINY_MASS = 1e-4  # kg: valid everywhere, negligible against a 7 g fingertip
+TINY_INERTIAL = Inertial(TINY_MASS, (0.0, 0.0, 0.0), (1e-9, 0.0, 0.0, 1e-9, 0.0, 1e-9))
+
+
+def needs_tiny_mass(robot: Robot) -> set[str]:
+    """Geometry-less links no output can merge away: those a movable joint hangs from (sdformat drops
+    a joint whose parent link is massless) or that move themselves (MuJoCo needs mass on a moving body)."""
+    geometry = {link.name for link in robot.links if link.has_geometry}
+    ends = {j.parent for j in robot.joints if j.movable} | {j.child for j in robot.joints if j.movable}
+    root = robot.root
+    return {name for name in ends if name not in geometry and name != root}
