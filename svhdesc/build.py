@@ -38,9 +38,7 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def write_variant(
-    variant: Variant, directory: Path, extra_packages: dict[str, Path], config_path: Path
-) -> None:
+def write_variant(variant: Variant, directory: Path, extra_packages: dict[str, Path], config_path: Path) -> None:
     compiled = compile_variant(variant, extra_packages)
     robot = compiled.robot
     directory.mkdir(parents=True)
@@ -50,9 +48,7 @@ def write_variant(
     outputs = {
         f"{variant.name}.urdf": export_urdf(robot),
         f"{variant.name}.xml": export_mjcf(robot, variant.settings),
-        "scene.xml": export_scene(
-            robot, f"{variant.name}.xml", float(variant.settings["scene"].get("floor_z", 0))
-        ),
+        "scene.xml": export_scene(robot, f"{variant.name}.xml", float(variant.settings["scene"].get("floor_z", 0))),
     }
     for name, data in outputs.items():
         (directory / name).write_bytes(data)

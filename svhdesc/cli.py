@@ -69,14 +69,10 @@ def main() -> None:
 
 @main.command("build")
 @click.argument("variants", nargs=-1)
-@click.option(
-    "--out", type=click.Path(path_type=Path), default=None, help="Output directory (default: generated/)."
-)
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Output directory (default: generated/).")
 @config_option
 @package_option
-@click.option(
-    "--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ."
-)
+@click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
 @_friendly
 def build_command(
     variants: tuple[str, ...],
@@ -139,9 +135,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
             click.echo(f"  {link.name:<28} {link.inertial.mass:9.4f} kg")
     click.echo("actuators:")
     for act in robot.actuators:
-        click.echo(
-            f"  {act.name:<36} [{act.lower:+.4f}, {act.upper:+.4f}] rad  {act.effort:g} N m  kp {act.kp:g}"
-        )
+        click.echo(f"  {act.name:<36} [{act.lower:+.4f}, {act.upper:+.4f}] rad  {act.effort:g} N m  kp {act.kp:g}")
     rows, cols, matrix = coupling_matrix(robot)
     if rows:
         prefix = robot.channels[0].joint[: -len(robot.channels[0].name)]
@@ -149,10 +143,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
         click.echo("coupling matrix S_m (joints x channels):")
         click.echo(" " * 26 + " ".join(f"{c[:8]:>8}" for c in short))
         for name, row in zip(rows, matrix):
-            click.echo(
-                f"  {name.removeprefix(prefix):<24}"
-                + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row)
-            )
+            click.echo(f"  {name.removeprefix(prefix):<24}" + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row))
 
 
 @main.command("validate")

@@ -16,8 +16,15 @@ SECTIONS: dict[str, set[str] | None] = {
     "coupling": None,
     "coupled_limits": None,
     "hand": {
-        "prefix", "fingertips", "force_sensor", "joint_damping", "joint_armature", "kp", "dampratio",
-        "limit_margin", "limit_solref",
+        "prefix",
+        "fingertips",
+        "force_sensor",
+        "joint_damping",
+        "joint_armature",
+        "kp",
+        "dampratio",
+        "limit_margin",
+        "limit_solref",
     },
     "arm": {"enabled", "joints", "kp", "dampratio", "joint_damping", "joint_armature"},
     "mass": {"budgets", "links", "inertials"},
@@ -52,9 +59,7 @@ class Variant:
         return (self.config_dir / self.settings[key]).resolve()
 
     def packages(self) -> dict[str, Path]:
-        return {
-            name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()
-        }
+        return {name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()}
 
 
 @dataclass(frozen=True)

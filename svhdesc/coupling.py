@@ -64,9 +64,7 @@ def load_spec(path: Path) -> CouplingSpec:
         if not 1 <= len(coeffs) <= MAX_ORDER + 1:
             raise SvhdescError(f"{at}: coupled joint {joint}: poly has {len(coeffs)} terms (1 to 5 allowed)")
         if joint in channel_names:
-            raise SvhdescError(
-                f"{at}: joint {joint} is a channel and cannot also follow {leader}: driven twice"
-            )
+            raise SvhdescError(f"{at}: joint {joint} is a channel and cannot also follow {leader}: driven twice")
         if joint in lines:
             first = next(c for c in couplings if c.joint == joint)
             problem = "duplicated" if first.channel == leader else f"driven twice (also by {first.channel})"

@@ -78,14 +78,10 @@ class DecompParams:
     def __post_init__(self) -> None:
         # Coerce ints to float so 1 and 1.0 give the same canonical JSON (and cache key).
         if isinstance(self.threshold, bool) or not isinstance(self.threshold, (int, float)):
-            raise DecompParamsError(
-                f"decomposition parameter 'threshold' must be a number, got {self.threshold!r}"
-            )
+            raise DecompParamsError(f"decomposition parameter 'threshold' must be a number, got {self.threshold!r}")
         object.__setattr__(self, "threshold", float(self.threshold))
         if not 0.0 < self.threshold <= 1.0:
-            raise DecompParamsError(
-                f"decomposition parameter 'threshold' must be in (0, 1], got {self.threshold}"
-            )
+            raise DecompParamsError(f"decomposition parameter 'threshold' must be in (0, 1], got {self.threshold}")
         for name, low in (
             ("max_convex_hull", -1),
             ("preprocess_resolution", 1),
@@ -118,9 +114,7 @@ class DecompParams:
         known = {f.name for f in dataclasses.fields(cls)}
         for key in d:
             if key not in known:
-                raise DecompParamsError(
-                    f"unknown decomposition parameter {key!r} (known: {', '.join(sorted(known))})"
-                )
+                raise DecompParamsError(f"unknown decomposition parameter {key!r} (known: {', '.join(sorted(known))})")
         return dataclasses.replace(base or cls(), **dict(d))
 
     def to_json(self) -> str:
@@ -379,9 +373,7 @@ class HullCache:
             entry = {"format": self.FORMAT, "key": key, "count": len(files), "files": files}
             if meta:
                 entry["meta"] = dict(meta)
-            (tmp / self.ENTRY).write_text(
-                json.dumps(entry, indent=1, sort_keys=True) + "\n", encoding="utf-8"
-            )
+            (tmp / self.ENTRY).write_text(json.dumps(entry, indent=1, sort_keys=True) + "\n", encoding="utf-8")
             try:
                 os.replace(tmp, final)
             except OSError:
@@ -511,9 +503,7 @@ def parallel_decompose(
     elif pending:
         # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
         ctx = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=_init_worker
-        ) as pool:
+        with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker) as pool:
             futures = {}
             for key, (stl, params, job_names) in pending.items():
                 decompose_calls += 1

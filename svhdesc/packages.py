@@ -38,9 +38,7 @@ def find_package(name: str, packages: Mapping[str, Path], where: str) -> Path:
         return packages[name]
     except KeyError:
         known = ", ".join(sorted(packages)) or "none"
-        raise SvhdescError(
-            f"{where}: unknown package '{name}' (known: {known}; add --package {name}=DIR)"
-        ) from None
+        raise SvhdescError(f"{where}: unknown package '{name}' (known: {known}; add --package {name}=DIR)") from None
 
 
 def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:

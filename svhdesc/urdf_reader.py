@@ -90,9 +90,7 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     origin = _pose(element.find("origin"), where)
     mass = float(element.find("mass").get("value"))
     inertia = element.find("inertia")
-    ixx, ixy, ixz, iyy, iyz, izz = (
-        float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
-    )
+    ixx, ixy, ixz, iyy, iyz, izz = (float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     if any(origin.rpy):  # the IR keeps tensors in the link frame
         rotation = rpy_matrix(origin.rpy)
@@ -112,12 +110,8 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path) 
             Link(
                 name=name,
                 inertial=_inertial(element.find("inertial"), where),
-                visuals=tuple(
-                    _geometry(v, name, materials, packages, source) for v in element.findall("visual")
-                ),
-                collisions=tuple(
-                    _geometry(c, name, materials, packages, source) for c in element.findall("collision")
-                ),
+                visuals=tuple(_geometry(v, name, materials, packages, source) for v in element.findall("visual")),
+                collisions=tuple(_geometry(c, name, materials, packages, source) for c in element.findall("collision")),
             )
         )
     names = [link.name for link in links]

@@ -44,9 +44,7 @@ def expand_xacro(
     subst._eval_dict["find"] = find
     xacro.all_includes = []
     try:
-        doc: xml.dom.minidom.Document = xacro.process_file(
-            str(path), mappings={k: str(v) for k, v in args.items()}
-        )
+        doc: xml.dom.minidom.Document = xacro.process_file(str(path), mappings={k: str(v) for k, v in args.items()})
     except SvhdescError:
         raise
     except ExpatError as exc:
@@ -58,9 +56,7 @@ def expand_xacro(
         where = Path(xacro.filestack[-1]) if xacro.filestack else path
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         quoted = re.search(r"'([^']+)'", message)
-        raise SvhdescError(
-            f"{_locate(where, quoted.group(1) if quoted else None)}: xacro: {message}"
-        ) from None
+        raise SvhdescError(f"{_locate(where, quoted.group(1) if quoted else None)}: xacro: {message}") from None
     finally:
         subst._eval_find, subst._eval_dict["find"] = saved
     inputs = [path.resolve(), *(Path(f).resolve() for f in xacro.all_includes)]

@@ -24,12 +24,8 @@ needs_vendor = pytest.mark.skipif(not SVH_MESHES.is_dir(), reason="vendor meshes
 
 def _l_shape() -> trimesh.Trimesh:
     """A closed, non-convex, asymmetric solid (two boxes welded into an L)."""
-    a = trimesh.creation.box(
-        (0.04, 0.01, 0.01), transform=trimesh.transformations.translation_matrix((0.02, 0, 0))
-    )
-    b = trimesh.creation.box(
-        (0.01, 0.03, 0.01), transform=trimesh.transformations.translation_matrix((0, 0.015, 0))
-    )
+    a = trimesh.creation.box((0.04, 0.01, 0.01), transform=trimesh.transformations.translation_matrix((0.02, 0, 0)))
+    b = trimesh.creation.box((0.01, 0.03, 0.01), transform=trimesh.transformations.translation_matrix((0, 0.015, 0)))
     return trimesh.boolean.union([a, b], engine="manifold")
 
 
@@ -159,9 +155,7 @@ def test_convex_hull_is_convex_closed_and_order_independent():
 
 
 def test_convex_hull_of_flat_input_raises():
-    flat = trimesh.Trimesh(
-        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2], [1, 3, 2]], process=False
-    )
+    flat = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2], [1, 3, 2]], process=False)
     with pytest.raises(MeshError, match="degenerate"):
         convex_hull(flat)
 
@@ -239,6 +233,4 @@ def test_authoring_script_reproduces_the_committed_meshes(tmp_path: Path):
     assert result.returncode == 0, result.stderr
     for path in AUTHORED_FILES:
         fresh = tmp_path / path.parent.name / path.name
-        assert fresh.read_bytes() == path.read_bytes(), (
-            f"{path.relative_to(REPO)} differs from the script's output"
-        )
+        assert fresh.read_bytes() == path.read_bytes(), f"{path.relative_to(REPO)} differs from the script's output"

@@ -140,9 +140,7 @@ def cyl(center: Vec, axis: str, t0: float, t1: float, r: float, n: int = 32) -> 
     return lathe(center, axis, [(t0, r), (t1, r)], n)
 
 
-def chamfered_cyl(
-    center: Vec, axis: str, t0: float, t1: float, r: float, c: float, n: int = 48
-) -> trimesh.Trimesh:
+def chamfered_cyl(center: Vec, axis: str, t0: float, t1: float, r: float, c: float, n: int = 48) -> trimesh.Trimesh:
     """Cylinder with a 45 degree chamfer ``c`` on both rims."""
     return lathe(center, axis, [(t0, r - c), (t0 + c, r), (t1 - c, r), (t1, r - c)], n)
 
@@ -161,9 +159,7 @@ def rbox(lo: Vec, hi: Vec, r: float, subdiv: int = 1) -> trimesh.Trimesh:
     if np.any(hi_ < lo_):
         raise ValueError(f"rbox {lo}..{hi} too small for radius {r}")
     ball = trimesh.creation.icosphere(subdivisions=subdiv, radius=r).vertices
-    corners = [
-        np.array([x, y, z]) for x in (lo_[0], hi_[0]) for y in (lo_[1], hi_[1]) for z in (lo_[2], hi_[2])
-    ]
+    corners = [np.array([x, y, z]) for x in (lo_[0], hi_[0]) for y in (lo_[1], hi_[1]) for z in (lo_[2], hi_[2])]
     pts = np.vstack([ball + c for c in corners])
     # pin the exact faces of the box so the extents are exact
     pts = np.clip(pts, lo, hi)
@@ -263,9 +259,7 @@ def svh_z() -> trimesh.Trimesh:
         rbox((-15.17, -9.5, 26.5), (15.17, 10.5, 32.0), 2.0),
     ]
     for x0, x1 in ((10.0, 15.17), (-15.17, -10.0)):
-        parts.append(
-            hull(box((x0, -11.85, 26.5), (x1, 11.93, 34.0)), cyl((0, 0, 47.1), "x", x0, x1, 12.0, 32))
-        )
+        parts.append(hull(box((x0, -11.85, 26.5), (x1, 11.93, 34.0)), cyl((0, 0, 47.1), "x", x0, x1, 12.0, 32)))
     return union(*parts)
 
 
@@ -285,9 +279,7 @@ def svh_b() -> trimesh.Trimesh:
         rbox((8.0, -13.24, -12.0), (14.0, 10.5, 12.0), 2.0),
         rbox((24.0, -10.0, -9.0), (36.5, 7.0, 9.0), 3.0),
     )
-    return diff(
-        solid, box((-13.0, -15.0, -9.8), (9.0, 15.0, 9.8)), box((27.0, -15.0, -7.2), (40.0, 15.0, 7.2))
-    )
+    return diff(solid, box((-13.0, -15.0, -9.8), (9.0, 15.0, 9.8)), box((27.0, -15.0, -7.2), (40.0, 15.0, 7.2)))
 
 
 def svh_c() -> trimesh.Trimesh:
@@ -394,9 +386,7 @@ SVH_SYMMETRY = {
 # --------------------------------------------------------------------------
 
 
-def _tilted_cap(
-    cx: float, r: float, z0: float, z_top: Callable[[np.ndarray], np.ndarray], n: int = 64
-) -> np.ndarray:
+def _tilted_cap(cx: float, r: float, z0: float, z_top: Callable[[np.ndarray], np.ndarray], n: int = 64) -> np.ndarray:
     """Rim points of a z-axis housing at x = cx whose top is z_top(x, y)."""
     ring = _circle((cx, 0, 0), "z", r, n)
     inner = _circle((cx, 0, 0), "z", r - 12.0, n)
@@ -558,9 +548,7 @@ def check_symmetry(mesh: trimesh.Trimesh, axis: str, name: str, tol: float = 1e-
 def collada_bytes(mesh: trimesh.Trimesh, name: str, rgba: Sequence[int]) -> bytes:
     """Export with trimesh, then make the document reproducible and Z-up in metres."""
     m = mesh.copy()
-    m.visual = trimesh.visual.ColorVisuals(
-        m, face_colors=np.tile(np.asarray(rgba, np.uint8), (len(m.faces), 1))
-    )
+    m.visual = trimesh.visual.ColorVisuals(m, face_colors=np.tile(np.asarray(rgba, np.uint8), (len(m.faces), 1)))
     raw = trimesh.exchange.dae.export_collada(m)
     root = etree.fromstring(raw, etree.XMLParser(remove_blank_text=True))
     ns = root.nsmap[None]

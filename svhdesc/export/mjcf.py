@@ -146,9 +146,7 @@ def export_mjcf(robot: Robot, settings: dict[str, Any]) -> bytes:
         solimp="0.95 0.99 0.001",
     )
     asset = sub(root, "asset")
-    meshes = sorted(
-        {g.mesh for link in robot.links for g in (*link.visuals, *link.collisions) if g.kind == "mesh"}
-    )
+    meshes = sorted({g.mesh for link in robot.links for g in (*link.visuals, *link.collisions) if g.kind == "mesh"})
     for mesh in meshes:
         sub(asset, "mesh", name=mesh.removesuffix(".stl"), file=mesh)  # type: ignore[union-attr]
     worldbody = sub(root, "worldbody")

@@ -94,9 +94,7 @@ def _gazebo(root: etree._Element, robot: Robot) -> None:
                 collision = sub(element, "collision", name=f"{link.name}_collision_{i}")
                 torsional = sub(sub(sub(collision, "surface"), "friction"), "torsional")
                 sub(torsional, "coefficient").text = num(link.contact.torsional)
-    control = sub(
-        sub(root, "gazebo"), "plugin", name="gazebo_ros_control", filename="libgazebo_ros_control.so"
-    )
+    control = sub(sub(root, "gazebo"), "plugin", name="gazebo_ros_control", filename="libgazebo_ros_control.so")
     sub(control, "robotNamespace").text = "/"
     for joint in robot.joints:
         if joint.mimic is None:
@@ -109,9 +107,7 @@ def _gazebo(root: etree._Element, robot: Robot) -> None:
         sub(plugin, "offset").text = num(offset)
         sub(plugin, "maxEffort").text = num(joint.effort)
     for sensor in robot.sensors:
-        plugin = sub(
-            sub(root, "gazebo"), "plugin", name=f"{sensor.name}_f3d", filename="libgazebo_ros_f3d.so"
-        )
+        plugin = sub(sub(root, "gazebo"), "plugin", name=f"{sensor.name}_f3d", filename="libgazebo_ros_f3d.so")
         sub(plugin, "updateRate").text = "100"
         sub(plugin, "bodyName").text = sensor.link
         sub(plugin, "topicName").text = sensor.name

@@ -61,9 +61,7 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
     kps = _per_joint(arm.get("kp", 1000.0), len(names), "arm.kp") if names else []
     for name, kp in zip(names, kps):
         j = joints[name]
-        actuators.append(
-            Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0)))
-        )
+        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0))))
     # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's.
     updated = []
     for joint in robot.joints:
@@ -102,8 +100,7 @@ def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, opt
             if joint in movable:
                 if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
                     raise SvhdescError(
-                        f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; "
-                        "give its channel instead"
+                        f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; give its channel instead"
                     )
                 positions[joint] = float(value)
             elif key not in optional and key not in channel_names:

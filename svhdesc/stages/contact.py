@@ -11,9 +11,7 @@ from ..ir import Contact, Robot
 
 def fingertip_links(robot: Robot, hand: dict[str, Any]) -> list[str]:
     names = {link.name for link in robot.links}
-    return [
-        f"{hand['prefix']}_{tip}" for tip in hand.get("fingertips", []) if f"{hand['prefix']}_{tip}" in names
-    ]
+    return [f"{hand['prefix']}_{tip}" for tip in hand.get("fingertips", []) if f"{hand['prefix']}_{tip}" in names]
 
 
 def add_contact(robot: Robot, contact: dict[str, Any], hand: dict[str, Any]) -> Robot:
@@ -30,7 +28,6 @@ def add_contact(robot: Robot, contact: dict[str, Any], hand: dict[str, Any]) -> 
     )
     other = Contact(mu=float(contact.get("default_sliding", 0.8)), condim=3)
     links = [
-        replace(link, contact=tip if link.name in tips else other) if link.collisions else link
-        for link in robot.links
+        replace(link, contact=tip if link.name in tips else other) if link.collisions else link for link in robot.links
     ]
     return replace(robot, links=tuple(links))

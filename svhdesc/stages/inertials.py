@@ -62,9 +62,7 @@ def check_inertial(inertial: Inertial, where: str) -> None:
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     moments = np.linalg.eigvalsh(tensor)
     if inertial.mass <= 0 or moments[0] <= 0:
-        raise SvhdescError(
-            f"{where}: inertia not positive definite (mass {inertial.mass}, moments {moments})"
-        )
+        raise SvhdescError(f"{where}: inertia not positive definite (mass {inertial.mass}, moments {moments})")
     a, b, c = moments
     if a + b < c * (1 - 1e-9):
         raise SvhdescError(f"{where}: principal moments {moments} violate the triangle inequality")
@@ -84,9 +82,7 @@ def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefi
         free = [n for n in members if n not in masses]
         remaining = float(budget["total"]) - fixed
         if members and (remaining <= 0 or not free):
-            raise SvhdescError(
-                f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}"
-            )
+            raise SvhdescError(f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}")
         volume = sum(abs(solids[n].volume) for n in free)
         for name in free:
             masses[name] = remaining * abs(solids[name].volume) / volume
@@ -99,9 +95,7 @@ def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefi
             inertial = link.inertial  # explicit in the source
         elif link.name in solids:
             if link.name not in masses:
-                raise SvhdescError(
-                    f"link {link.name} has geometry but no mass: add it to a budget or mass.links"
-                )
+                raise SvhdescError(f"link {link.name} has geometry but no mass: add it to a budget or mass.links")
             inertial = cylinder_inertial(solids[link.name], masses[link.name])
         elif link.name in tiny:
             inertial = TINY_INERTIAL
