@@ -48,7 +48,7 @@ def write_variant(variant: Variant, directory: Path, extra_packages: dict[str, P
     outputs = {
         f"{variant.name}.urdf": export_urdf(robot),
         f"{variant.name}.xml": export_mjcf(robot, variant.settings),
-        "scene.xml": export_scene(robot, f"{variant.name}.xml", float(variant.settings["scene"].get("floor_z", 0))),
+        "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
     }
     for name, data in outputs.items():
         (directory / name).write_bytes(data)

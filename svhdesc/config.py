@@ -33,7 +33,7 @@ SECTIONS: dict[str, set[str] | None] = {
     "simulation": {"timestep", "coupling_solref", "coupling_solimp", "noslip_iterations"},
     "keyframes": None,
     "collision": None,
-    "scene": {"floor_z"},
+    "scene": {"floor_z", "pedestal_radius"},
 }
 VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
 CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}

@@ -151,6 +151,29 @@ def test_vertex_bound_fallback_is_deterministic() -> None:
     assert dec._hull(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float), 12) is None
 
 
+def test_close_holes_caps_open_boundaries() -> None:
+    box = trimesh.creation.box((0.02, 0.01, 0.01))
+    for drop in ([0], [0, 1]):  # a triangular hole, then a whole square side
+        keep = np.setdiff1d(np.arange(len(box.faces)), drop)
+        opened = trimesh.Trimesh(box.vertices, box.faces[keep], process=False)
+        assert not opened.is_watertight
+        vertices, faces = dec._close_holes(np.asarray(opened.vertices), np.asarray(opened.faces))
+        closed = trimesh.Trimesh(vertices, faces, process=False)
+        assert closed.is_watertight and closed.is_winding_consistent
+        assert closed.volume == pytest.approx(box.volume)
+    # a closed mesh passes through untouched
+    vertices, faces = dec._close_holes(np.asarray(box.vertices), np.asarray(box.faces))
+    assert np.array_equal(faces, box.faces) and len(vertices) == len(box.vertices)
+
+
+def test_open_mesh_is_decomposed_as_a_solid() -> None:
+    # A box with one side missing: hulls must fill it, not line its walls.
+    box = trimesh.creation.box((0.03, 0.01, 0.01))
+    opened = trimesh.Trimesh(box.vertices, box.faces[2:], process=False)
+    hulls = decompose(opened, DecompParams.from_mapping({**_fast(), "preprocess_mode": "auto"}))
+    assert sum(h.volume for h in hulls) == pytest.approx(box.volume, rel=0.05)
+
+
 def test_stl_roundtrip_is_exact(annulus: trimesh.Trimesh) -> None:
     data = dec._stl_bytes(annulus)
     assert data[:80] == dec._STL_HEADER and len(data) == 84 + 50 * len(annulus.faces)

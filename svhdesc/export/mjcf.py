@@ -207,15 +207,13 @@ def export_mjcf(robot: Robot, settings: dict[str, Any]) -> bytes:
     return serialise(root)
 
 
-def export_scene(robot: Robot, model_file: str, floor_z: float) -> bytes:
+def export_scene(robot: Robot, model_file: str, scene: dict[str, Any]) -> bytes:
+    """Menagerie-style scene: the model, a floor, light; an arm stands on a pedestal if the floor is lower."""
+    floor_z = float(scene.get("floor_z", 0.0))
+    pedestal = float(scene.get("pedestal_radius", 0.0))
     root = etree.Element("mujoco", model=f"{robot.name} scene")
     sub(root, "include", file=model_file)
-    sub(
-        root,
-        "statistic",
-        center="0 0 0.3" if floor_z == 0 else "0 0 0.1",
-        extent="1" if floor_z == 0 else "0.3",
-    )
+    sub(root, "statistic", center=nums((0.0, 0.0, floor_z / 2.0 + 0.1)), extent=num(max(0.4, 2.0 * abs(floor_z))))
     visual = sub(root, "visual")
     sub(visual, "headlight", diffuse="0.6 0.6 0.6", ambient="0.3 0.3 0.3", specular="0 0 0")
     sub(visual, "rgba", haze="0.15 0.25 0.35 1")
@@ -255,6 +253,16 @@ def export_scene(robot: Robot, model_file: str, floor_z: float) -> bytes:
     )
     worldbody = sub(root, "worldbody")
     sub(worldbody, "light", pos="0 0 1.5", dir="0 0 -1", directional="true")
+    if pedestal and floor_z < 0:
+        sub(
+            worldbody,
+            "geom",
+            name="pedestal",
+            type="cylinder",
+            size=nums((pedestal, -floor_z / 2.0)),
+            pos=nums((0.0, 0.0, floor_z / 2.0)),
+            rgba="0.3 0.3 0.32 1",
+        )
     sub(
         worldbody,
         "geom",
