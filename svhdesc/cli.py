@@ -140,10 +140,13 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     if rows:
         prefix = robot.channels[0].joint[: -len(robot.channels[0].name)]
         short = [c.removeprefix(prefix) for c in cols]
+        # Column keys: initials of the channel name (Index_Finger_Distal -> IFD).
+        keys = ["".join(part[0] for part in name.split("_")) for name in short]
         click.echo("coupling matrix S_m (joints x channels):")
-        click.echo(" " * 26 + " ".join(f"{c[:8]:>8}" for c in short))
+        click.echo("  " + ", ".join(f"{k} = {name}" for k, name in zip(keys, short)))
+        click.echo(" " * 26 + " ".join(f"{k:>8}" for k in keys))
         for name, row in zip(rows, matrix):
-            click.echo(f"  {name.removeprefix(prefix):<24}" + " ".join(f"{v:8.4g}" if v else f"{'.':>8}" for v in row))
+            click.echo(f"  {name.removeprefix(prefix):<24}" + " ".join(f"{v:8.5g}" if v else f"{'.':>8}" for v in row))
 
 
 @main.command("validate")
