@@ -73,6 +73,10 @@ def main() -> None:
 @config_option
 @package_option
 @click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
+@click.option("--jobs", "-j", type=int, default=0, help="Parallel decompositions (default: one per CPU).")
+@click.option("--rebuild-collisions", is_flag=True, help="Decompose again, ignoring every cache.")
+@click.option("--timings", "show_timings", is_flag=True, help="Print wall time per build stage.")
+@click.option("--force", is_flag=True, help="Rebuild (or with --check, rebuild and compare) even if up to date.")
 @_friendly
 def build_command(
     variants: tuple[str, ...],
@@ -80,23 +84,53 @@ def build_command(
     config_path: Path | None,
     packages: tuple[str, ...],
     check: bool,
+    jobs: int,
+    rebuild_collisions: bool,
+    show_timings: bool,
+    force: bool,
 ) -> None:
     """Build VARIANTS (all by default) into OUT/<variant>/."""
-    from . import build as builder
+    from .freshness import stale_variants
 
     config, package_dirs = _load(config_path, packages)
     out = out or default_out()
+    selected = config.select(list(variants))
+    # Unchanged sources, tools and outputs (by content hash): nothing to build, nothing to import.
+    stale = selected if force or rebuild_collisions else stale_variants(selected, out, package_dirs)
+    current = [v.name for v in selected if v not in stale]
+    for name in current:
+        click.echo(f"up to date: {out / name}")
+    if not stale:
+        return
+
+    from . import build as builder
+    from .decompose import HullCache
+    from .hull_source import HullSource, default_cache_dir
+    from .timings import Timings
+
+    # The progress bar shows only on a terminal (HullSource checks); CI logs stay quiet.
+    hulls = HullSource(HullCache(default_cache_dir()), jobs=jobs, force=rebuild_collisions, progress=True)
+    timings = Timings()
+    run = builder.check if check else builder.build
+    result = run(config, [v.name for v in stale], out, package_dirs, hulls, timings)
+    if show_timings:
+        counts = hulls.counts
+        click.echo(timings.report(), err=True)
+        click.echo(
+            f"collision decompositions: {counts['decomposed']} run, {counts['cached']} from the cache, "
+            f"{counts['committed']} from committed outputs",
+            err=True,
+        )
     if check:
-        differences = builder.check(config, list(variants), out, package_dirs)
-        if differences:
-            click.echo(f"{len(differences)} file(s) differ from {out}:", err=True)
-            for line in differences:
+        if result:
+            click.echo(f"{len(result)} file(s) differ from {out}:", err=True)
+            for line in result:
                 click.echo(f"  {line}", err=True)
             sys.exit(1)
-        click.echo(f"up to date: {out}")
+        for variant in stale:
+            click.echo(f"up to date: {out / variant.name} (rebuilt and compared)")
         return
-    built = builder.build(config, list(variants), out, package_dirs)
-    for name in built:
+    for name in result:
         click.echo(f"built {out / name}")
 
 
@@ -118,10 +152,16 @@ def list_command(config_path: Path | None) -> None:
 def info_command(variant: str, config_path: Path | None, packages: tuple[str, ...]) -> None:
     """DoF, actuators, masses and the coupling matrix S_m of VARIANT."""
     from .coupling import coupling_matrix
+    from .decompose import HullCache
+    from .hull_source import HullSource, default_cache_dir
+    from .paths import generated_dir
     from .pipeline import compile_variant
 
     config, package_dirs = _load(config_path, packages)
-    robot = compile_variant(config.select([variant])[0], package_dirs).robot
+    selected = config.select([variant])[0]
+    hulls = HullSource(HullCache(default_cache_dir()))
+    hulls.seed_from_outputs([generated_dir() / selected.name])
+    robot = compile_variant(selected, package_dirs, hulls).robot
     movable = [j for j in robot.joints if j.movable]
     coupled = [j for j in movable if j.mimic]
     click.echo(

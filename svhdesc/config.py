@@ -66,6 +66,7 @@ class Variant:
 class Config:
     path: Path
     variants: dict[str, Variant]
+    files: tuple[Path, ...] = ()  # this file and every file it extends: inputs of every variant
 
     def select(self, names: list[str] | tuple[str, ...]) -> list[Variant]:
         for name in names:
@@ -97,9 +98,11 @@ def _check_sections(data: dict[str, Any], at: str) -> None:
             raise SvhdescError(f"{where(value, at)}: unknown key(s) {sorted(unknown)} in '{section}'")
 
 
-def _read(path: Path, chain: tuple[Path, ...] = ()) -> dict[str, Any]:
+def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = None) -> dict[str, Any]:
     """The config's mapping with ``extends: BASE`` resolved (the base's variants are not inherited)."""
     data = load_yaml(path)
+    if files is not None:
+        files.append(path.resolve())
     if not isinstance(data, dict):
         raise SvhdescError(f"{path}: config must be a mapping")
     base_name = data.pop("extends", None)
@@ -108,7 +111,7 @@ def _read(path: Path, chain: tuple[Path, ...] = ()) -> dict[str, Any]:
     base_path = (path.parent / str(base_name)).resolve()
     if base_path in chain:
         raise SvhdescError(f"{where(data, str(path))}: 'extends' loops back to {base_path}")
-    base = _read(base_path, (*chain, path.resolve()))
+    base = _read(base_path, (*chain, path.resolve()), files)
     base.pop("variants", None)
     # Paths in the base stay relative to the base file.
     for key in ("coupling",):
@@ -125,7 +128,8 @@ def _read(path: Path, chain: tuple[Path, ...] = ()) -> dict[str, Any]:
 
 def load_config(path: Path) -> Config:
     path = Path(path)
-    data = _read(path)
+    files: list[Path] = []
+    data = _read(path, files=files)
     if not isinstance(data.get("variants"), dict) or not data["variants"]:
         raise SvhdescError(f"{path}: config needs a non-empty 'variants' mapping")
     unknown = set(data) - set(SECTIONS) - {"variants"}
@@ -166,4 +170,4 @@ def load_config(path: Path) -> Config:
         xacro_path = (path.parent / entry["xacro"]).resolve()
         args = {str(k): str(v) for k, v in (entry.get("args") or {}).items()}
         variants[name] = Variant(name, xacro_path, args, settings, path.parent.resolve())
-    return Config(path, variants)
+    return Config(path, variants, tuple(files))

@@ -4,8 +4,9 @@ CoACD is slow (tens of seconds for the vendor palm at its defaults) and every ex
 the simulation, so the build decomposes each mesh once per (mesh, parameters, CoACD version) and
 serves every later build from ``HullCache``.  Results are a pure function of the cache key:
 
-* the input is canonicalised first (float32 triangles as in its binary STL, identical vertices
-  merged), so two meshes with the same key are decomposed from the same bytes;
+* the input is canonicalised first (``meshes.stl_bytes``: float32 triangles in a canonical order,
+  then identical vertices merged), so two meshes with the same key are decomposed from the same
+  bytes, whatever their vertex and face order;
 * CoACD runs with a fixed seed (it is reproducible on one machine, whatever its thread count);
 * every part is re-hulled from float32 points, so the hull survives the STL round trip of the
   cache bit for bit, and the returned meshes are always parsed back from those bytes.
@@ -32,8 +33,11 @@ import numpy as np
 import trimesh
 
 from svhdesc.errors import SvhdescError
+from svhdesc.meshes import stl_bytes
 
 __all__ = [
+    "LINK_CLASS_PARAMS",
+    "bounded_hull",
     "DecompParams",
     "DecompParamsError",
     "HullCache",
@@ -47,7 +51,6 @@ __all__ = [
 # Bump when anything in the post-processing below changes its output: it is part of every key,
 # so stale cache entries simply stop matching.
 _ALGORITHM_VERSION = "svhdesc.decompose/1"
-_STL_HEADER = b"svhdesc binary STL, float32 little-endian".ljust(80, b"\0")
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 _PREPROCESS_MODES = ("auto", "on", "off")
 
@@ -62,18 +65,20 @@ class DecompParamsError(SvhdescError, ValueError):
 
 @dataclass(frozen=True)
 class DecompParams:
-    """CoACD settings plus the per-hull vertex bound.  Defaults suit a phalanx (see README)."""
+    """CoACD settings plus the per-hull vertex bound.  Defaults: the phalanx preset below."""
 
-    threshold: float = 0.08  # concavity threshold; higher -> fewer, looser hulls
-    max_convex_hull: int = 6  # hull cap per mesh (CoACD merges down to it); -1 = no cap
+    threshold: float = 0.1  # concavity threshold; higher -> fewer, looser hulls
+    max_convex_hull: int = 4  # hull cap per mesh (CoACD merges down to it); -1 = no cap
     preprocess_mode: Literal["auto", "on", "off"] = "auto"  # manifold remesh (auto: if non-manifold)
-    preprocess_resolution: int = 40  # voxel resolution of that remesh
+    preprocess_resolution: int = 30  # grid of that remesh: coarser closes bigger gaps, inflates more
     resolution: int = 2000  # samples for the concavity metric
-    mcts_nodes: int = 20  # tree-search width/iterations/depth: fewer -> faster, coarser cuts
-    mcts_iterations: int = 100
+    # Tree search width/iterations/depth, far below CoACD's 20/150/3: with a hull cap the merge
+    # step decides the result, and the wider search only costs time (numbers in the report).
+    mcts_nodes: int = 10
+    mcts_iterations: int = 30
     mcts_max_depth: int = 2
     seed: int = 0
-    max_hull_vertices: int = 32  # bound on vertices per hull (CoACD decimate + our own fallback)
+    max_hull_vertices: int = 48  # bound on vertices per hull (CoACD decimate + our own fallback)
     # Fan-fill open boundary loops first: CoACD's voxel remesh of an open mesh leaks through the
     # holes and yields a hollow shell (vendor palm: hulls then cover only 53-80 % of its volume).
     close_holes: bool = True
@@ -129,25 +134,23 @@ class DecompParams:
         return json.dumps(dataclasses.asdict(self), sort_keys=True, separators=(",", ":"))
 
 
+# Presets per link class, measured on the vendor meshes as loaded by svhdesc.meshes (2 cores,
+# one job at a time).  "excess" = hull volume outside the mesh / mesh volume; "cover" = share of
+# the mesh inside the hulls; a single convex hull is the reference.
+#   palm      h10, h11    5.4, 6.4 s   8 hulls  excess 0.39, 0.48 (one hull 0.73, 0.76)  cover 98, 97 %
+#   phalanx   f11,f12,d11 2.1-4.9 s  2-4 hulls  excess 0.17, 0.60, 0.05 (1.65 for f12's hull)
+#   fingertip f13, d13    3.6, 2.9 s   4 hulls  excess 0.23, 0.17 (one hull 0.42, 0.28)    cover 99 %
+#   arm       UR5 links   0.6-8.0 s  2-6 hulls  excess 0.02-0.33 (forearm 0.17 vs 0.55 one hull)
+# CoACD's own defaults take 135 s / 93 hulls on h10 and cover only 53 % of it (open mesh: hollow).
+LINK_CLASS_PARAMS: dict[str, DecompParams] = {
+    "palm": DecompParams(threshold=0.15, max_convex_hull=8, max_hull_vertices=48),
+    "phalanx": DecompParams(),
+    "fingertip": DecompParams(max_hull_vertices=64),  # contact surface: keep the shape finer
+    "arm": DecompParams(max_convex_hull=6, max_hull_vertices=64),
+}
+
+
 # --------------------------------------------------------------------------- STL canonical form
-
-
-def _stl_bytes(mesh: trimesh.Trimesh) -> bytes:
-    """Deterministic binary STL: fixed header, float32 LE, normals recomputed from the faces.
-
-    Private until svhdesc.meshes.stl_bytes lands; then one of the two goes.
-    """
-    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces, dtype=np.int64)]
-    tri32 = tri.astype("<f4")
-    # Normals from the float32 corners, so the bytes depend on the stored coordinates only.
-    t = tri32.astype(np.float64)
-    cross = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    norm = np.linalg.norm(cross, axis=1, keepdims=True)
-    normals = np.divide(cross, norm, out=np.zeros_like(cross), where=norm > 0)
-    records = np.zeros(len(tri32), dtype=_STL_RECORD)
-    records["normal"] = normals
-    records["vertices"] = tri32
-    return _STL_HEADER + np.uint32(len(records)).astype("<u4").tobytes() + records.tobytes()
 
 
 def _mesh_from_stl(data: bytes) -> trimesh.Trimesh:
@@ -166,7 +169,7 @@ def _mesh_from_stl(data: bytes) -> trimesh.Trimesh:
 
 def cache_key(mesh: trimesh.Trimesh, params: DecompParams) -> str:
     """sha256 over the input's canonical STL, the params' canonical JSON and the CoACD version."""
-    return _key_from_stl(_stl_bytes(mesh), params)
+    return _key_from_stl(stl_bytes(mesh), params)
 
 
 def _key_from_stl(stl: bytes, params: DecompParams) -> str:
@@ -290,6 +293,14 @@ def _hull_checked(pts: np.ndarray, max_vertices: int) -> trimesh.Trimesh | None:
     return hull
 
 
+def bounded_hull(mesh: trimesh.Trimesh, max_vertices: int) -> trimesh.Trimesh:
+    """One convex hull of the mesh with at most ``max_vertices`` corners (the single-hull mode)."""
+    hull = _hull(np.asarray(mesh.vertices), max_vertices)
+    if hull is None:
+        raise DecompParamsError("cannot hull a flat or empty mesh")
+    return hull
+
+
 def _merge_to_cap(hulls: list[trimesh.Trimesh], cap: int, max_vertices: int) -> list[trimesh.Trimesh]:
     """Greedy fallback if CoACD returns more than the cap: merge the pair that adds least volume."""
     hulls = list(hulls)
@@ -352,7 +363,7 @@ def _decompose_stl(stl: bytes, params: DecompParams) -> list[bytes]:
         hulls = [whole]
     if params.max_convex_hull > 0 and len(hulls) > params.max_convex_hull:
         hulls = _merge_to_cap(hulls, params.max_convex_hull, params.max_hull_vertices)
-    blobs = [(h, _stl_bytes(h)) for h in hulls]
+    blobs = [(h, stl_bytes(h)) for h in hulls]
     return [stl for _, stl in sorted(blobs, key=_sort_key)]
 
 
@@ -361,7 +372,7 @@ def decompose(mesh: trimesh.Trimesh, params: DecompParams) -> list[trimesh.Trime
     each with at most ``params.max_hull_vertices`` vertices.  Always runs CoACD (no cache)."""
     global decompose_calls
     decompose_calls += 1
-    return [_mesh_from_stl(b) for b in _decompose_stl(_stl_bytes(mesh), params)]
+    return [_mesh_from_stl(b) for b in _decompose_stl(stl_bytes(mesh), params)]
 
 
 # --------------------------------------------------------------------------- cache
@@ -429,7 +440,7 @@ class HullCache:
                     return None
                 blobs.append(data)
             return blobs
-        except (OSError, ValueError, KeyError, TypeError):  # JSONDecodeError is a ValueError
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):  # JSONDecodeError: ValueError
             return None
 
     def put(self, key: str, hull_stl_bytes: list[bytes], meta: Mapping[str, Any] | None = None) -> Path:
@@ -485,7 +496,7 @@ def cached_decompose(
     Hits and misses return identical meshes: both are parsed from the same STL bytes.
     """
     global decompose_calls
-    stl = _stl_bytes(mesh)
+    stl = stl_bytes(mesh)
     key = _key_from_stl(stl, params)
     if cache is not None and not force:
         blobs = cache.get(key)
@@ -536,7 +547,8 @@ def parallel_decompose(
 
     Returns ``{name: (hulls, cache_hit)}`` in job order.  Results do not depend on ``n_jobs``
     (each is a function of its key alone); jobs with equal keys are decomposed once.
-    ``n_jobs <= 0`` means one process per CPU; 1 runs in this process without a pool.
+    ``n_jobs <= 0`` means one process per CPU; 1 runs in this process without a pool.  Workers
+    are spawned, so a calling script needs the usual ``if __name__ == "__main__":`` guard.
     """
     global decompose_calls
     names = [name for name, _, _ in jobs]
@@ -548,7 +560,7 @@ def parallel_decompose(
     pending: dict[str, tuple[bytes, DecompParams, list[str]]] = {}  # key -> (stl, params, names)
     bar = _Progress(len(jobs), progress)
     for name, mesh, params in jobs:
-        stl = _stl_bytes(mesh)
+        stl = stl_bytes(mesh)
         key = _key_from_stl(stl, params)
         if key in pending:
             pending[key][2].append(name)

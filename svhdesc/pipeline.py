@@ -10,14 +10,17 @@ from lxml import etree
 
 from .config import Variant
 from .coupling import apply_spec, load_spec
+from .hull_source import HullSource
 from .ir import Robot
 from .packages import resolve_uri
 from .stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from .stages.assets import Assets
+from .stages.collision_rules import collision_rules
 from .stages.collisions import add_excludes
 from .stages.contact import add_contact
-from .stages.geometry import bake_meshes
+from .stages.geometry import bake_meshes, decomposition_jobs
 from .stages.inertials import add_inertials, link_solid
+from .timings import Timings
 from .urdf_reader import read_urdf
 from .xacro_expand import expand_xacro
 
@@ -29,25 +32,57 @@ class Compiled:
     inputs: list[Path]  # every file the build read, for the manifest
 
 
-def compile_variant(variant: Variant, extra_packages: dict[str, Path]) -> Compiled:
+@dataclass
+class Source:
+    robot: Robot  # as read: kinematics and geometry, nothing injected yet
+    inputs: list[Path]
+
+
+def read_source(variant: Variant, extra_packages: dict[str, Path], timings: Timings) -> Source:
     packages = {**variant.packages(), **extra_packages}
-    tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
-    robot = read_urdf(tree, packages, variant.xacro)
-    robot = replace(robot, name=variant.name)
+    with timings.stage("xacro"):
+        tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
+    with timings.stage("read"):
+        robot = replace(read_urdf(tree, packages, variant.xacro), name=variant.name)
+    return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
+
+
+def decomposition_plan(variant: Variant, source: Source) -> list:
+    """The decompositions this variant needs, so a build can run them all in parallel first."""
+    rules = collision_rules(source.robot, variant.settings["collision"], variant.hand["prefix"])
+    return decomposition_jobs(source.robot, rules)
+
+
+def compile_variant(
+    variant: Variant,
+    extra_packages: dict[str, Path],
+    hulls: HullSource | None = None,
+    timings: Timings | None = None,
+    source: Source | None = None,
+) -> Compiled:
+    timings = timings or Timings()
+    source = source or read_source(variant, extra_packages, timings)
     spec_path = variant.path("coupling")
-    spec = load_spec(spec_path)
     prefix = variant.hand["prefix"]
-    robot = apply_spec(robot, spec, prefix, widen_limits=variant.settings["coupled_limits"] == "widen")
+    with timings.stage("coupling"):
+        spec = load_spec(spec_path)
+        widen = variant.settings["coupled_limits"] == "widen"
+        robot = apply_spec(source.robot, spec, prefix, widen_limits=widen)
     assets = Assets()
-    robot = bake_meshes(robot, assets)
-    robot = add_inertials(robot, assets, variant.settings["mass"], prefix)
-    robot = add_contact(robot, variant.settings["contact"], variant.hand)
-    robot = add_actuation(robot, variant.settings)
-    robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
-    bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
-    robot = add_force_sensor(robot, variant.hand, bounds)
-    robot = add_excludes(robot, assets, variant.settings)
-    return Compiled(robot, assets, [*inputs, spec_path, *_mesh_sources(tree, packages, variant.xacro)])
+    with timings.stage("meshes"):
+        rules = collision_rules(robot, variant.settings["collision"], prefix)
+        robot = bake_meshes(robot, assets, rules, hulls)
+    with timings.stage("inertials"):
+        robot = add_inertials(robot, assets, variant.settings["mass"], prefix)
+    with timings.stage("physics"):
+        robot = add_contact(robot, variant.settings["contact"], variant.hand)
+        robot = add_actuation(robot, variant.settings)
+        robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
+        bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
+        robot = add_force_sensor(robot, variant.hand, bounds)
+    with timings.stage("exclusions"):
+        robot = add_excludes(robot, assets, variant.settings)
+    return Compiled(robot, assets, [*source.inputs, spec_path])
 
 
 def _mesh_sources(tree: etree._Element, packages: dict[str, Path], source: Path) -> list[Path]:

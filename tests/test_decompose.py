@@ -12,6 +12,7 @@ import trimesh
 
 import svhdesc.decompose as dec
 from svhdesc.decompose import DecompParams, HullCache, cached_decompose, decompose, parallel_decompose
+from svhdesc.meshes import STL_HEADER, stl_bytes
 
 # Cheap settings: the test meshes are watertight, so CoACD's manifold remesh can be skipped.
 FAST = DecompParams(
@@ -49,7 +50,7 @@ def annulus() -> trimesh.Trimesh:
 
 
 def _blobs(hulls: list[trimesh.Trimesh]) -> list[bytes]:
-    return [dec._stl_bytes(h) for h in hulls]
+    return [stl_bytes(h) for h in hulls]
 
 
 def _entry(cache: HullCache, mesh: trimesh.Trimesh, params: DecompParams) -> Path:
@@ -103,7 +104,8 @@ def test_hulls_convex_and_cover(l_shape: trimesh.Trimesh, annulus: trimesh.Trime
             assert h.is_convex
             assert h.volume > 0  # outward winding
         # Hulls cover the shape: points sampled inside the mesh lie inside some hull.
-        pts = trimesh.sample.volume_mesh(mesh, 2000)
+        pts = np.random.default_rng(0).uniform(*mesh.bounds, size=(4000, 3))
+        pts = pts[mesh.contains(pts)]
         inside = np.zeros(len(pts), bool)
         for h in hulls:
             signed = np.einsum("pfi,fi->pf", pts[:, None] - h.triangles[:, 0], h.face_normals)
@@ -146,14 +148,15 @@ def test_vertex_bound_fallback_is_deterministic() -> None:
     b = dec._hull(points, 12)
     assert a is not None and b is not None
     assert len(a.vertices) <= 12 and a.is_convex
-    assert dec._stl_bytes(a) == dec._stl_bytes(b)
+    assert stl_bytes(a) == stl_bytes(b)
     # Flat input has no hull worth simulating.
     assert dec._hull(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float), 12) is None
 
 
 def test_close_holes_caps_open_boundaries() -> None:
     box = trimesh.creation.box((0.02, 0.01, 0.01))
-    for drop in ([0], [0, 1]):  # a triangular hole, then a whole square side
+    side = list(box.facets[0])  # the two triangles of one side
+    for drop in (side[:1], side):  # a triangular hole, then a whole square side
         keep = np.setdiff1d(np.arange(len(box.faces)), drop)
         opened = trimesh.Trimesh(box.vertices, box.faces[keep], process=False)
         assert not opened.is_watertight
@@ -169,16 +172,18 @@ def test_close_holes_caps_open_boundaries() -> None:
 def test_open_mesh_is_decomposed_as_a_solid() -> None:
     # A box with one side missing: hulls must fill it, not line its walls.
     box = trimesh.creation.box((0.03, 0.01, 0.01))
-    opened = trimesh.Trimesh(box.vertices, box.faces[2:], process=False)
+    keep = np.setdiff1d(np.arange(len(box.faces)), box.facets[0])
+    opened = trimesh.Trimesh(box.vertices, box.faces[keep], process=False)
+    assert not opened.is_watertight
     hulls = decompose(opened, DecompParams.from_mapping({**_fast(), "preprocess_mode": "auto"}))
     assert sum(h.volume for h in hulls) == pytest.approx(box.volume, rel=0.05)
 
 
 def test_stl_roundtrip_is_exact(annulus: trimesh.Trimesh) -> None:
-    data = dec._stl_bytes(annulus)
-    assert data[:80] == dec._STL_HEADER and len(data) == 84 + 50 * len(annulus.faces)
+    data = stl_bytes(annulus)
+    assert data[:80] == STL_HEADER and len(data) == 84 + 50 * len(annulus.faces)
     again = dec._mesh_from_stl(data)
-    assert again.is_watertight and dec._stl_bytes(again) == data
+    assert again.is_watertight and stl_bytes(again) == data
     with pytest.raises(ValueError):
         dec._mesh_from_stl(data[:-1])
 
@@ -336,6 +341,29 @@ def test_parallel_hits_spawn_nothing(
 def test_parallel_rejects_duplicate_names(l_shape: trimesh.Trimesh) -> None:
     with pytest.raises(ValueError, match="duplicate"):
         parallel_decompose([("a", l_shape, FAST), ("a", l_shape, FAST)], None, n_jobs=1)
+
+
+SVH_MESHES = Path(__file__).resolve().parents[2] / "shared" / "vendor" / "schunk_svh_driver" / "description" / "meshes"
+
+
+@pytest.mark.skipif(not SVH_MESHES.is_dir(), reason="vendor meshes (../shared) not present")
+def test_vendor_phalanx_with_preset() -> None:
+    # f11 is open (mm-size holes): hole closing makes it a solid CoACD can cut without remeshing.
+    from svhdesc.meshes import load_mesh
+
+    mesh = load_mesh(SVH_MESHES / "f11.dae")
+    assert not mesh.is_watertight
+    params = dec.LINK_CLASS_PARAMS["phalanx"]
+    hulls = decompose(mesh, params)
+    assert 1 <= len(hulls) <= params.max_convex_hull
+    assert all(h.is_convex and len(h.vertices) <= params.max_hull_vertices for h in hulls)
+    # The hulls hug the surface: nearly every surface point lies within 1 mm of the hull set.
+    points, _ = trimesh.sample.sample_surface(mesh, 2000, seed=0)
+    gap = np.min(
+        [np.einsum("pfi,fi->pf", points[:, None] - h.triangles[:, 0], h.face_normals).max(axis=1) for h in hulls],
+        axis=0,
+    )
+    assert np.mean(gap <= 1e-3) > 0.95, np.mean(gap <= 1e-3)
 
 
 def _fast() -> dict:

@@ -40,3 +40,16 @@ def quat_wxyz(pose: Pose) -> tuple[float, float, float, float]:
     if q[0] < 0:  # canonical sign keeps outputs deterministic
         q = tuple(-v for v in q)
     return tuple(float(v) for v in q)  # type: ignore[return-value]
+
+
+def matrix_pose(matrix: np.ndarray) -> Pose:
+    """Inverse of ``pose_matrix`` (URDF rpy, yaw-pitch-roll)."""
+    rotation = matrix[:3, :3]
+    pitch = float(np.arcsin(np.clip(-rotation[2, 0], -1.0, 1.0)))
+    if abs(rotation[2, 0]) < 1.0 - 1e-12:
+        roll = float(np.arctan2(rotation[2, 1], rotation[2, 2]))
+        yaw = float(np.arctan2(rotation[1, 0], rotation[0, 0]))
+    else:  # gimbal lock: put everything in yaw
+        roll = 0.0
+        yaw = float(np.arctan2(-rotation[0, 1], rotation[1, 1]))
+    return Pose(tuple(float(v) for v in matrix[:3, 3]), (roll, pitch, yaw))  # type: ignore[arg-type]

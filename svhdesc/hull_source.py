@@ -1,0 +1,89 @@
+"""Where decomposed hulls come from: committed outputs, then the content cache, then CoACD."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import trimesh
+
+from .decompose import DecompParams, HullCache, cache_key, parallel_decompose
+from .meshes import stl_bytes
+
+
+def default_cache_dir() -> Path:
+    explicit = os.environ.get("SVHDESC_CACHE")
+    if explicit:
+        return Path(explicit)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "svhdesc" / "hulls"
+
+
+def _mesh(data: bytes) -> trimesh.Trimesh:
+    mesh = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="stl", process=False)
+    mesh.merge_vertices(digits_vertex=12)
+    return mesh
+
+
+@dataclass
+class HullSource:
+    cache: HullCache | None
+    jobs: int = 0
+    force: bool = False
+    progress: bool = False
+    seeds: dict[str, list[bytes]] = field(default_factory=dict)  # key -> hull STL bytes
+    results: dict[str, list[trimesh.Trimesh]] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=lambda: {"decomposed": 0, "cached": 0, "committed": 0})
+
+    def seed_from_outputs(self, directories: list[Path]) -> None:
+        """Committed hulls act as a cache: a manifest maps each decomposition key to its asset files."""
+        for directory in directories:
+            manifest_path = directory / "manifest.json"
+            try:
+                manifest = json.loads(manifest_path.read_text())
+            except (OSError, ValueError):
+                continue
+            outputs = manifest.get("outputs", {})
+            for key, files in (manifest.get("decompositions") or {}).items():
+                blobs = []
+                for name in files:
+                    path = directory / "assets" / name
+                    data = path.read_bytes() if path.is_file() else None
+                    if data is None or hashlib.sha256(data).hexdigest() != outputs.get(f"assets/{name}"):
+                        break  # a missing or edited file is not a cache entry
+                    blobs.append(data)
+                else:
+                    self.seeds[key] = blobs
+
+    def prefetch(self, jobs: list[tuple[str, trimesh.Trimesh, DecompParams]]) -> None:
+        """Decompose every job not yet known, in parallel; later ``get`` calls are lookups."""
+        todo = []
+        for _name, mesh, params in jobs:
+            key = cache_key(mesh, params)
+            if key in self.results:
+                continue
+            if key in self.seeds and not self.force:
+                self.results[key] = [_mesh(b) for b in self.seeds[key]]
+                self.counts["committed"] += 1
+            else:
+                todo.append((key, mesh, params))
+        unique = {key: (key, mesh, params) for key, mesh, params in todo}
+        done = parallel_decompose(
+            list(unique.values()), self.cache, self.jobs, self.force, self.progress and sys.stderr.isatty()
+        )
+        for key, (hulls, hit) in done.items():
+            self.results[key] = hulls
+            self.counts["cached" if hit else "decomposed"] += 1
+
+    def get(self, mesh: trimesh.Trimesh, params: DecompParams) -> tuple[str, list[trimesh.Trimesh]]:
+        key = cache_key(mesh, params)
+        if key not in self.results:
+            self.prefetch([(key, mesh, params)])
+        return key, self.results[key]
+
+
+def hull_bytes(hulls: list[trimesh.Trimesh]) -> list[bytes]:
+    return [stl_bytes(h) for h in hulls]
