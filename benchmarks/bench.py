@@ -1,0 +1,168 @@
+"""Build and simulation speed, measured in one run on this machine (not a test: machines are noisy).
+
+    python benchmarks/bench.py            # prints the figures and the ratios to the targets
+
+(a) cold build of the three variants (empty hull cache, empty output directory),
+(b) warm build: unchanged sources (up-to-date check) and forced (--force: full rebuild, cache hits),
+(c) --check on a clean clone (empty hull cache): by manifest, and --force (rebuild and compare bytes),
+(d) simulation speed of ur5_svh_right pressing its index fingertip on a fixed surface in the `test`
+    pose, as realtime factor at the model's own timestep, and as a ratio to the thesis model
+    (../shared/peers seed_svh_ur5_mujoco) in the same scene, measured in the same run.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+PEERS = REPO.parent / "shared" / "peers"
+VARIANT = "ur5_svh_right"
+SETTLE_STEPS = 1000
+TIMED_SECONDS = 10.0
+
+
+def timed(args: list[str], cwd: Path, cache: Path) -> tuple[float, str]:
+    env = {**os.environ, "SVHDESC_CACHE": str(cache)}
+    start = time.perf_counter()
+    result = subprocess.run(
+        [sys.executable, "-m", "svhdesc.cli", *args], cwd=cwd, env=env, capture_output=True, text=True
+    )
+    elapsed = time.perf_counter() - start
+    if result.returncode != 0:
+        raise SystemExit(f"{' '.join(args)} failed:\n{result.stderr}")
+    counts = re.search(r"decompositions: .*", result.stderr)
+    return elapsed, counts.group(0) if counts else ""
+
+
+def tip_points(model: mujoco.MjModel, data: mujoco.MjData, body: int) -> np.ndarray:
+    points = []
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] != body or not (model.geom_contype[g] or model.geom_conaffinity[g]):
+            continue
+        rotation, position = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g]
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = model.geom_dataid[g]
+            local = model.mesh_vert[model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        else:
+            local = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * model.geom_size[g]
+        points.append(local @ rotation.T + position)
+    return np.vstack(points)
+
+
+def contact_scene(spec: mujoco.MjSpec, pose: dict[str, float]) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The model in ``pose`` with a table whose top sits 2 mm inside the index fingertip."""
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    qpos = data.qpos.copy()
+    for name, value in pose.items():
+        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if joint >= 0:
+            qpos[model.jnt_qposadr[joint]] = value
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    points = tip_points(model, data, model.body("right_hand_t").id)
+    lowest = points[np.argmin(points[:, 2])]
+    table = spec.worldbody.add_geom()
+    table.name = "bench_table"
+    table.type = mujoco.mjtGeom.mjGEOM_BOX
+    table.size = [0.1, 0.1, 0.01]
+    table.pos = [lowest[0], lowest[1], lowest[2] + 0.002 - 0.01]
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    for a in range(model.nu):
+        data.ctrl[a] = qpos[model.jnt_qposadr[model.actuator_trnid[a, 0]]]
+    return model, data
+
+
+def realtime_factor(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[float, int, int]:
+    for _ in range(SETTLE_STEPS):
+        mujoco.mj_step(model, data)
+    steps = round(TIMED_SECONDS / model.opt.timestep)
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    wall = time.perf_counter() - start
+    table = model.geom("bench_table").id
+    touching = sum(1 for c in data.contact[: data.ncon] if table in (c.geom1, c.geom2))
+    warnings = sum(w.number for w in data.warning)
+    return steps * model.opt.timestep / wall, touching, warnings
+
+
+def peer_spec(directory: Path) -> mujoco.MjSpec:
+    sys.path.insert(0, str(PEERS))
+    from peers import PEERS as FILES
+    from peers import xml_text
+
+    text = xml_text("seed_svh_ur5_mujoco").replace(
+        'meshdir="meshes"', f'meshdir="{FILES["seed_svh_ur5_mujoco"].parent / "meshes"}"'
+    )
+    path = directory / "thesis.xml"
+    path.write_text(text)
+    return mujoco.MjSpec.from_file(str(path))
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory(prefix="svhdesc-bench-") as tmp:
+        root = Path(tmp)
+        out = root / "out"
+        cold, cold_counts = timed(["build", "--out", str(out), "--timings"], REPO, root / "cache")
+        warm, _ = timed(["build", "--out", str(out)], REPO, root / "cache")
+        forced, forced_counts = timed(["build", "--out", str(out), "--force", "--timings"], REPO, root / "cache")
+        clone = root / "clone"
+        subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
+        check, _ = timed(["build", "--check"], clone, root / "clone-cache")
+        check_full, check_counts = timed(["build", "--check", "--force", "--timings"], clone, root / "clone-cache")
+
+        ours = mujoco.MjSpec.from_file(str(REPO / "generated" / VARIANT / f"{VARIANT}.xml"))
+        probe = ours.compile()
+        test = probe.key("test")
+        pose = {probe.joint(j).name: float(test.qpos[probe.jnt_qposadr[j]]) for j in range(probe.njnt)}
+        our_rtf, our_contacts, our_warnings = realtime_factor(*contact_scene(ours, pose))
+        thesis_rtf, thesis_contacts, thesis_warnings = realtime_factor(*contact_scene(peer_spec(root), pose))
+
+    rows = [
+        ("(a) cold build, 3 variants, empty cache", f"{cold:.1f} s", "<= 180 s", cold <= 180, cold_counts),
+        ("(b) warm build, unchanged (up-to-date check)", f"{warm:.2f} s", "<= 2 s", warm <= 2, ""),
+        ("(b) warm build, --force (full rebuild, cache hits)", f"{forced:.2f} s", "(info)", True, forced_counts),
+        ("(c) --check on a clean clone", f"{check:.2f} s", "<= 3 s", check <= 3, ""),
+        ("(c) --check --force on a clean clone", f"{check_full:.2f} s", "(info)", True, check_counts),
+        (
+            f"(d) {VARIANT} realtime factor, fingertip pressed",
+            f"{our_rtf:.2f}x",
+            "",
+            True,
+            f"{our_contacts} tip-table contacts, {our_warnings} warnings",
+        ),
+        (
+            "(d) thesis model, same scene",
+            f"{thesis_rtf:.2f}x",
+            "",
+            True,
+            f"{thesis_contacts} tip-table contacts, {thesis_warnings} warnings",
+        ),
+        (
+            "(d) ratio svhdesc / thesis",
+            f"{our_rtf / thesis_rtf:.2f}",
+            ">= 1.0",
+            our_rtf >= thesis_rtf and our_warnings == 0,
+            "",
+        ),
+    ]
+    width = max(len(r[0]) for r in rows)
+    for name, value, target, ok, note in rows:
+        mark = "" if target in ("", "(info)") else ("  met" if ok else "  MISSED")
+        print(f"{name:<{width}}  {value:>9}  {target:>8}{mark}  {note}")
+
+
+if __name__ == "__main__":
+    main()
