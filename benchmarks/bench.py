@@ -76,6 +76,10 @@ def contact_scene(spec: mujoco.MjSpec, pose: dict[str, float]) -> tuple[mujoco.M
     table.type = mujoco.mjtGeom.mjGEOM_BOX
     table.size = [0.1, 0.1, 0.01]
     table.pos = [lowest[0], lowest[1], lowest[2] + 0.002 - 0.01]
+    table.contype, table.conaffinity = 1, 1  # collide with either model's bitmasks
+    for geom in spec.geoms:
+        if geom.name == "floor":  # the thesis file's own floor: the test pose reaches below it
+            geom.contype, geom.conaffinity = 0, 0
     model = spec.compile()
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
