@@ -72,6 +72,22 @@ def _prepare(
     return sources
 
 
+def _write_all(
+    config: Config,
+    names: list[str],
+    out: Path,
+    directory: Path,
+    extra_packages: dict[str, Path],
+    hulls: HullSource,
+    timings: Timings,
+) -> list[Variant]:
+    """Every selected variant into ``directory``/<variant>; ``out`` holds the committed outputs."""
+    sources = _prepare(config, names, out, extra_packages, hulls, timings)
+    for variant, source in sources:
+        write_variant(variant, source, directory / variant.name, extra_packages, config.files, hulls, timings)
+    return [variant for variant, _ in sources]
+
+
 def build(
     config: Config,
     names: list[str],
@@ -85,17 +101,15 @@ def build(
     out.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".svhdesc-build-", dir=out))
     try:
-        sources = _prepare(config, names, out, extra_packages, hulls, timings)
-        for variant, source in sources:
-            write_variant(variant, source, staging / variant.name, extra_packages, config.files, hulls, timings)
-        for variant, _ in sources:
+        variants = _write_all(config, names, out, staging, extra_packages, hulls, timings)
+        for variant in variants:
             target, retired = out / variant.name, staging / f".old-{variant.name}"
             if target.exists():
                 os.replace(target, retired)
             os.replace(staging / variant.name, target)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    return [v.name for v, _ in sources]
+    return [v.name for v in variants]
 
 
 def check(
@@ -110,11 +124,9 @@ def check(
     timings = timings or Timings()
     with tempfile.TemporaryDirectory(prefix="svhdesc-check-") as tmp:
         fresh = Path(tmp)
-        sources = _prepare(config, names, out, extra_packages, hulls, timings)
-        for variant, source in sources:
-            write_variant(variant, source, fresh / variant.name, extra_packages, config.files, hulls, timings)
+        variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings)
         differences = []
-        for variant, _ in sources:
+        for variant in variants:
             new, old = fresh / variant.name, out / variant.name
             new_files = {p.relative_to(new) for p in new.rglob("*") if p.is_file()}
             old_files = {p.relative_to(old) for p in old.rglob("*") if p.is_file()} if old.is_dir() else set()

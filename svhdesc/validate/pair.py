@@ -22,7 +22,11 @@ def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
 
 
 def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
-    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
+
+    Deliberately not the builder's own (stages.frames): a validator sharing the code it checks
+    would share its bugs.
+    """
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
     return np.array(
