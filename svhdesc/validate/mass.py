@@ -9,7 +9,7 @@ import numpy as np
 
 from .options import Options
 from .pair import ModelPair
-from .report import Check, fmt, not_run, verdict
+from .report import Check, fmt, not_run, summary, verdict
 
 BUDGET_TOL = 1e-6  # relative: the build splits the budget exactly; this only absorbs summation order
 AGREE_TOL = 1e-9  # relative
@@ -107,11 +107,7 @@ def check_inertia(pair: ModelPair, options: Options) -> list[Check]:
     missing = [w for w, ok in (("URDF", pair.urdf is not None), ("MJCF", pair.model is not None)) if not ok]
     if missing:
         problems.append(f"{' and '.join(missing)} not checked (cannot be read)")
-    detail = (
-        "; ".join(problems[:6]) + (" ..." if len(problems) > 6 else "")
-        if problems
-        else f"{count} inertials (URDF and compiled MJCF)"
-    )
+    detail = summary(problems, f"{count} inertials (URDF and compiled MJCF)")
     return [
         Check(
             "inertia", verdict(not problems), f"{len(problems)} bad of {count}", bound, detail, {"problems": problems}
@@ -193,11 +189,7 @@ def check_mass_agreement(pair: ModelPair, options: Options) -> list[Check]:
         bad = [f"{k} {v:.2g}" for k, v in errors.items() if v > AGREE_TOL]
         if bad:
             problems.append(f"{name}: {', '.join(bad)}")
-    detail = (
-        "; ".join(problems[:6]) + (" ..." if len(problems) > 6 else "")
-        if problems
-        else f"{compared} links: mass, COM and inertia tensor"
-    )
+    detail = summary(problems, f"{compared} links: mass, COM and inertia tensor")
     return [
         Check(
             "mass_agreement",

@@ -45,6 +45,13 @@ def not_run(name: str, reason: str, bound: str = "", missing_tool: str | None = 
     return Check(name, NOT_RUN, "-", bound, reason, missing_tool=missing_tool)
 
 
+def summary(problems: list[str], fallback: str, limit: int = 6) -> str:
+    """The first ``limit`` problems, or ``fallback`` when there are none."""
+    if not problems:
+        return fallback
+    return "; ".join(problems[:limit]) + (" ..." if len(problems) > limit else "")
+
+
 def fmt(value: float, digits: int = 3) -> str:
     """Short engineering-style number for the table."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
