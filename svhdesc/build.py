@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import filecmp
 import json
-import os
-import shutil
 import tempfile
 from pathlib import Path
 
 from .config import Config, Variant
 from .export.mjcf import export_mjcf, export_scene
 from .export.urdf import export_urdf
+from .finite import check_finite
 from .freshness import portable, sha256, tool_versions
 from .hull_source import HullSource
+from .outdir import output_directory, publish
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .timings import Timings
 
@@ -29,6 +29,7 @@ def write_variant(
 ) -> None:
     compiled = compile_variant(variant, extra_packages, hulls, timings, source)
     robot = compiled.robot
+    check_finite(robot)
     directory.mkdir(parents=True)
     (directory / "assets").mkdir()
     for name, data in sorted(compiled.assets.files.items()):
@@ -96,19 +97,14 @@ def build(
     hulls: HullSource,
     timings: Timings | None = None,
 ) -> list[str]:
-    """Build into a temporary directory beside ``out``, then swap each variant in; returns variant names."""
+    """Build into a staging directory in ``out``, then swap each variant in whole; returns variant names.
+
+    See ``svhdesc.outdir``: one build per ``out`` at a time, crash-safe swaps.
+    """
     timings = timings or Timings()
-    out.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".svhdesc-build-", dir=out))
-    try:
+    with output_directory(out) as staging:
         variants = _write_all(config, names, out, staging, extra_packages, hulls, timings)
-        for variant in variants:
-            target, retired = out / variant.name, staging / f".old-{variant.name}"
-            if target.exists():
-                os.replace(target, retired)
-            os.replace(staging / variant.name, target)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        publish(staging, out, [v.name for v in variants])
     return [v.name for v in variants]
 
 

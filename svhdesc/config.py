@@ -3,40 +3,18 @@
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from .errors import SvhdescError
-from .yamlio import load_yaml, where
+from .settings import CONTACT_MODELS, Settings, mapping_of, normalise, text
+from .yamlio import Node, load_yaml, where
 
-# Every section a config may hold, with the keys it accepts (None: free-form mapping).
-SECTIONS: dict[str, set[str] | None] = {
-    "packages": None,
-    "coupling": None,
-    "coupled_limits": None,
-    "hand": {
-        "prefix",
-        "fingertips",
-        "force_sensor",
-        "joint_damping",
-        "joint_armature",
-        "kp",
-        "dampratio",
-        "limit_margin",
-        "limit_solref",
-    },
-    "arm": {"enabled", "joints", "kp", "dampratio", "joint_damping", "joint_armature"},
-    "mass": {"budgets", "links", "inertials"},
-    "contact": {"model", "sliding", "torsional", "rolling", "default_sliding"},
-    "transmissions": {"interface"},
-    "simulation": {"timestep", "coupling_solref", "coupling_solimp", "noslip_iterations"},
-    "keyframes": None,
-    "collision": None,
-    "scene": {"floor_z", "pedestal_radius"},
-}
+# Every section a config may hold: the fields of the one schema (svhdesc.settings).
+SECTIONS: tuple[str, ...] = tuple(f.name for f in fields(Settings))
 VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
-CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}
+__all__ = ["CONTACT_MODELS", "Config", "Variant", "load_config"]
 
 
 @dataclass(frozen=True)
@@ -44,8 +22,9 @@ class Variant:
     name: str
     xacro: Path
     args: dict[str, str]
-    settings: dict[str, Any]  # merged defaults + overrides
+    settings: dict[str, Any]  # merged defaults + overrides, checked, defaults filled (mappings, for the stages)
     config_dir: Path
+    typed: Settings | None = field(default=None, compare=False)  # the same values, typed
 
     @property
     def hand(self) -> dict[str, Any]:
@@ -76,26 +55,17 @@ class Config:
         return [self.variants[n] for n in (names or self.variants)]
 
 
-def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
-    merged = copy.deepcopy(base)
+def _merge(base: dict[str, Any], override: dict[str, Any]) -> Node:
+    """``override`` over ``base``, section by section; each key keeps the line it was written on."""
+    merged = Node(copy.deepcopy(dict(base)))
+    merged.where = getattr(override, "where", "") or getattr(base, "where", "")
+    merged.lines = {**getattr(base, "lines", {}), **getattr(override, "lines", {})}
     for key, value in override.items():
         if isinstance(value, dict) and isinstance(merged.get(key), dict) and key not in {"keyframes", "args"}:
             merged[key] = _merge(merged[key], value)
         else:
             merged[key] = copy.deepcopy(value)
     return merged
-
-
-def _check_sections(data: dict[str, Any], at: str) -> None:
-    for section, keys in SECTIONS.items():
-        value = data.get(section)
-        if keys is None or value is None:
-            continue
-        if not isinstance(value, dict):
-            raise SvhdescError(f"{where(value, at)}: '{section}' must be a mapping")
-        unknown = set(value) - keys
-        if unknown:
-            raise SvhdescError(f"{where(value, at)}: unknown key(s) {sorted(unknown)} in '{section}'")
 
 
 def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = None) -> dict[str, Any]:
@@ -105,12 +75,22 @@ def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = N
         files.append(path.resolve())
     if not isinstance(data, dict):
         raise SvhdescError(f"{path}: config must be a mapping")
+    at = where(data, str(path), "extends")
     base_name = data.pop("extends", None)
+    # Checked here: these paths are resolved against this file before any merge.
+    if "coupling" in data:
+        data["coupling"] = text(data["coupling"], f"{where(data, str(path), 'coupling')}: coupling")
+    if "packages" in data:
+        data["packages"] = mapping_of(text)(data["packages"], f"{where(data, str(path), 'packages')}: packages")
     if base_name is None:
         return data
-    base_path = (path.parent / str(base_name)).resolve()
+    if not isinstance(base_name, str) or not base_name:
+        raise SvhdescError(f"{at}: 'extends' must be a file name, got {base_name!r}")
+    base_path = (path.parent / base_name).resolve()
     if base_path in chain:
-        raise SvhdescError(f"{where(data, str(path))}: 'extends' loops back to {base_path}")
+        raise SvhdescError(f"{at}: 'extends' loops back to {base_path}")
+    if not base_path.is_file():
+        raise SvhdescError(f"{at}: 'extends': no such file {base_path}")
     base = _read(base_path, (*chain, path.resolve()), files)
     base.pop("variants", None)
     # Paths in the base stay relative to the base file.
@@ -118,56 +98,42 @@ def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = N
         if key in base:
             base[key] = str((base_path.parent / base[key]).resolve())
     if "packages" in base:
-        base["packages"] = {k: str((base_path.parent / v).resolve()) for k, v in base["packages"].items()}
-    merged = _merge(base, data)
-    if isinstance(data, dict) and hasattr(data, "where"):
-        merged = type(data)(merged)
-        merged.where = data.where  # type: ignore[attr-defined]
-    return merged
+        packages = base["packages"]
+        base["packages"] = Node({k: str((base_path.parent / v).resolve()) for k, v in packages.items()})
+        base["packages"].lines = dict(packages.lines)
+    return _merge(base, data)
 
 
 def load_config(path: Path) -> Config:
     path = Path(path)
     files: list[Path] = []
     data = _read(path, files=files)
-    if not isinstance(data.get("variants"), dict) or not data["variants"]:
-        raise SvhdescError(f"{path}: config needs a non-empty 'variants' mapping")
-    unknown = set(data) - set(SECTIONS) - {"variants"}
+    unknown = [key for key in data if key not in SECTIONS and key != "variants"]
     if unknown:
-        raise SvhdescError(f"{where(data, str(path))}: unknown top-level key(s) {sorted(unknown)}")
-    defaults = {key: value for key, value in data.items() if key != "variants"}
-    defaults.setdefault("coupled_limits", "error")
-    for section in (
-        "hand",
-        "arm",
-        "mass",
-        "contact",
-        "transmissions",
-        "simulation",
-        "keyframes",
-        "collision",
-        "scene",
-    ):
-        defaults.setdefault(section, {})
-    _check_sections(defaults, str(path))
+        at = where(data, str(path), unknown[0])
+        raise SvhdescError(f"{at}: unknown top-level key(s) {sorted(map(str, unknown))}")
+    if not isinstance(data.get("variants"), dict) or not data["variants"]:
+        raise SvhdescError(f"{where(data, str(path), 'variants')}: config needs a non-empty 'variants' mapping")
+    defaults = Node({key: value for key, value in data.items() if key != "variants"})
+    defaults.where, defaults.lines = where(data, str(path)), dict(getattr(data, "lines", {}))
     variants = {}
     for name, entry in data["variants"].items():
-        at = where(entry, str(path))
+        at = where(entry, where(data["variants"], str(path), name))
         if not isinstance(entry, dict) or "xacro" not in entry:
             raise SvhdescError(f"{at}: variant {name} needs an 'xacro' entry point")
-        bad = set(entry) - VARIANT_KEYS
+        bad = [key for key in entry if key not in VARIANT_KEYS]
         if bad:
-            raise SvhdescError(f"{at}: variant {name}: unknown key(s) {sorted(bad)}")
-        settings = _merge(defaults, {k: v for k, v in entry.items() if k not in {"xacro", "args"}})
-        _check_sections(settings, at)
-        if "coupling" not in settings:
-            raise SvhdescError(f"{at}: variant {name} has no 'coupling' spec")
-        if settings["coupled_limits"] not in {"error", "widen"}:
-            raise SvhdescError(f"{at}: coupled_limits must be 'error' or 'widen'")
-        model = settings["contact"].get("model", "soft_finger")
-        if model not in CONTACT_MODELS:
-            raise SvhdescError(f"{at}: contact model '{model}' is not one of {sorted(CONTACT_MODELS)}")
-        xacro_path = (path.parent / entry["xacro"]).resolve()
-        args = {str(k): str(v) for k, v in (entry.get("args") or {}).items()}
-        variants[name] = Variant(name, xacro_path, args, settings, path.parent.resolve())
+            raise SvhdescError(f"{where(entry, at, bad[0])}: variant {name}: unknown key(s) {sorted(map(str, bad))}")
+        overrides = Node({k: v for k, v in entry.items() if k not in {"xacro", "args"}})
+        overrides.where, overrides.lines = at, dict(getattr(entry, "lines", {}))
+        typed, settings = normalise(_merge(defaults, overrides), at)
+        xacro = entry["xacro"]
+        if not isinstance(xacro, str) or not xacro:
+            raise SvhdescError(f"{where(entry, at, 'xacro')}: variant {name}: 'xacro' must be a file name")
+        args = entry.get("args") or {}
+        if not isinstance(args, dict) or any(isinstance(v, (dict, list)) for v in args.values()):
+            raise SvhdescError(f"{where(entry, at, 'args')}: variant {name}: 'args' must map names to values")
+        xacro_path = (path.parent / xacro).resolve()
+        args = {str(k): str(v) for k, v in args.items()}
+        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve(), typed)
     return Config(path, variants, tuple(files))

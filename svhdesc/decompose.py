@@ -24,6 +24,7 @@ import os
 import shutil
 import sys
 import tempfile
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -392,6 +393,31 @@ class HullCache:
 
     def __init__(self, root: Path | str) -> None:
         self.root = Path(root)
+        self.broken = ""  # why writing failed: a cache that cannot be written is not used for writing again
+
+    def store(self, key: str, hull_stl_bytes: list[bytes], meta: Mapping[str, Any] | None = None) -> None:
+        """``put`` for a build: a read-only, full or misplaced cache warns once and the build goes on."""
+        if self.broken:
+            return
+        try:
+            self.put(key, hull_stl_bytes, meta)
+        except OSError as exc:
+            self.broken = exc.strerror or type(exc).__name__
+            warnings.warn(f"hull cache {self.root} is unusable ({self.broken}); building without caching", stacklevel=2)
+
+    def meshes(self, key: str) -> list[trimesh.Trimesh] | None:
+        """The entry parsed into meshes, or None; an entry that does not parse is deleted (rebuilt)."""
+        try:
+            blobs = self.get(key)
+        except OSError:
+            return None
+        if blobs is None:
+            return None
+        try:
+            return [_mesh_from_stl(b) for b in blobs]
+        except ValueError:
+            shutil.rmtree(self.path(key), ignore_errors=True)
+            return None
 
     @staticmethod
     def key(mesh: trimesh.Trimesh, params: DecompParams) -> str:
@@ -499,23 +525,40 @@ def cached_decompose(
     stl = stl_bytes(mesh)
     key = _key_from_stl(stl, params)
     if cache is not None and not force:
-        blobs = cache.get(key)
-        if blobs is not None:
-            return [_mesh_from_stl(b) for b in blobs], True
+        hit = cache.meshes(key)
+        if hit is not None:
+            return hit, True
     decompose_calls += 1
     blobs = _decompose_stl(stl, params)
     if cache is not None:
-        cache.put(key, blobs, _entry_meta(params))
+        cache.store(key, blobs, _entry_meta(params))
     return [_mesh_from_stl(b) for b in blobs], False
 
 
 # --------------------------------------------------------------------------- parallel
 
 
-def _init_worker() -> None:
+def _init_worker(parent: int = 0) -> None:
     # One OpenMP thread per worker: the pool already fills the cores, and oversubscribing them
     # only slows every job.  Works because the worker imports CoACD lazily, after this.
     os.environ["OMP_NUM_THREADS"] = "1"
+    die_with_parent(parent)
+
+
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(parent: int) -> None:
+    """Linux: the kernel sends SIGKILL to this process when its parent dies (even by kill -9)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if parent and os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
 
 
 class _Progress:
@@ -565,9 +608,9 @@ def parallel_decompose(
         if key in pending:
             pending[key][2].append(name)
             continue
-        blobs = None if cache is None or force else cache.get(key)
-        if blobs is not None:
-            results[name] = ([_mesh_from_stl(b) for b in blobs], True)
+        hit = None if cache is None or force else cache.meshes(key)
+        if hit is not None:
+            results[name] = (hit, True)
             bar.step(f"{name} (cached)")
         else:
             pending[key] = (stl, params, [name])
@@ -575,7 +618,7 @@ def parallel_decompose(
     def finish(key: str, blobs: list[bytes]) -> None:
         _, params, job_names = pending[key]
         if cache is not None:
-            cache.put(key, blobs, _entry_meta(params))
+            cache.store(key, blobs, _entry_meta(params))
         for job_name in job_names:
             results[job_name] = ([_mesh_from_stl(b) for b in blobs], False)
             bar.step(job_name)
@@ -589,7 +632,9 @@ def parallel_decompose(
     elif pending:
         # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
         ctx = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker) as pool:
+        with concurrent.futures.ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+        ) as pool:
             futures = {}
             for key, (stl, params, job_names) in pending.items():
                 decompose_calls += 1

@@ -12,6 +12,8 @@ import numpy as np
 import trimesh
 from lxml import etree
 
+MAX_RAW = 1e6  # largest plausible number in a mesh file (a coordinate of 1 km in millimetres)
+MAX_METRES = 1e3  # largest plausible coordinate in metres
 MERGE_DIGITS = 6  # vertices closer than ~1e-6 m are welded (vendor DAEs are split per material)
 STL_HEADER = b"svhdesc binary STL".ljust(80, b" ")
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
@@ -43,6 +45,14 @@ def _collada_frame(path: Path) -> tuple[float, np.ndarray | None]:
             raise MeshError(f"{path}: bad <unit meter={unit.get('meter')!r}>") from None
         if not np.isfinite(meter) or meter <= 0:
             raise MeshError(f"{path}: bad <unit meter={unit.get('meter')!r}>")
+    # Checked on the text: the COLLADA reader turns nan/inf/overflowing numbers into 0.0 or drops them.
+    for array in root.iter("{*}float_array"):
+        try:
+            values = np.array((array.text or "").split(), dtype=np.float64)
+        except ValueError:
+            raise MeshError(f"{path}: <float_array id={array.get('id')!r}> holds a non-number") from None
+        if not np.all(np.isfinite(values)) or np.any(np.abs(values) > MAX_RAW):
+            raise MeshError(f"{path}: <float_array id={array.get('id')!r}> holds a non-finite or huge value")
     up = root.findtext("{*}asset/{*}up_axis", default="Z_UP").strip().upper()
     if up not in _UP_AXIS:
         raise MeshError(f"{path}: unknown <up_axis> {up!r}")
@@ -67,7 +77,11 @@ def _read(path: Path) -> trimesh.Trimesh:
         raise MeshError(f"{path}: mesh has no triangles")
     if not np.all(np.isfinite(vertices)):
         raise MeshError(f"{path}: mesh has non-finite vertex coordinates")
+    if np.any(faces < 0) or np.any(faces >= len(vertices)):
+        raise MeshError(f"{path}: mesh has faces indexing missing vertices")
     vertices = vertices * meter
+    if np.max(np.abs(vertices)) > MAX_METRES:
+        raise MeshError(f"{path}: mesh has a vertex {np.max(np.abs(vertices)):.3g} m from its origin (huge)")
     if rotation is not None:
         vertices = vertices @ rotation.T
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
@@ -93,6 +107,9 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
     mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:
         raise MeshError(f"{path}: mesh has only degenerate triangles")
+    spread = np.linalg.svd(np.asarray(mesh.vertices) - np.asarray(mesh.vertices).mean(axis=0), compute_uv=False)
+    if len(spread) < 3 or spread[2] <= 1e-9 * spread[0]:
+        raise MeshError(f"{path}: mesh is flat (all vertices in one plane): no volume to simulate")
     faces = np.asarray(mesh.faces)
     if np.prod(s) < 0:
         faces = faces[:, ::-1]

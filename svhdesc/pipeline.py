@@ -43,7 +43,7 @@ def read_source(variant: Variant, extra_packages: dict[str, Path], timings: Timi
     with timings.stage("xacro"):
         tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
     with timings.stage("read"):
-        robot = replace(read_urdf(tree, packages, variant.xacro), name=variant.name)
+        robot = replace(read_urdf(tree, packages, variant.xacro, inputs), name=variant.name)
     return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
 
 

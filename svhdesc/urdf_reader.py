@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +25,50 @@ def _floats(text: str | None, n: int, default: tuple[float, ...], where: str) ->
         raise SvhdescError(f"{where}: not a number list: {text!r}") from None
     if len(values) != n:
         raise SvhdescError(f"{where}: expected {n} numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in values):
+        raise SvhdescError(f"{where}: non-finite number in {text!r}")
     return values
+
+
+def _number(element: etree._Element | None, key: str, default: float | None, where: str) -> float:
+    """A finite number attribute; ``default`` None: required."""
+    text = element.get(key) if element is not None else None
+    if text is None:
+        if default is None:
+            tag = element.tag if element is not None else "element"
+            raise SvhdescError(f"{where}: <{tag}> needs a '{key}' attribute")
+        return default
+    return _floats(text, 1, (), f"{where}: {key}")[0]
+
+
+def _positive(values: tuple[float, ...], where: str) -> tuple[float, ...]:
+    if not all(v > 0 for v in values):
+        raise SvhdescError(f"{where}: sizes must be > 0, got {values}")
+    return values
+
+
+def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path) -> str:
+    """``file:line`` of the element ``<tag name=...>`` that expanded to ``name`` (xacro keeps no lines).
+
+    Tries the literal name, then a macro-built one ending in the same suffix (``${prefix}_j3``).
+    """
+    if name:
+        tails = [name] + [name[i:] for i in range(1, len(name)) if name[i] == "_"]
+        patterns = [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')] + [
+            re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}{re.escape(tail)}"') for tail in tails[1:]
+        ]
+        texts = []
+        for file in files:
+            try:
+                texts.append((file, file.read_text(encoding="utf-8", errors="replace").splitlines()))
+            except OSError:
+                continue
+        for pattern in patterns:
+            for file, lines in texts:
+                for number, line in enumerate(lines, start=1):
+                    if pattern.search(line):
+                        return f"{file}:{number}"
+    return str(fallback)
 
 
 def _pose(element: etree._Element | None, where: str) -> Pose:
@@ -35,12 +80,14 @@ def _pose(element: etree._Element | None, where: str) -> Pose:
     )
 
 
-def _materials(root: etree._Element) -> dict[str, tuple[float, float, float, float]]:
+def _materials(root: etree._Element, files: Sequence[Path], source: Path) -> dict[str, tuple[float, ...]]:
     colours = {}
     for material in root.findall("material"):
         colour = material.find("color")
-        if colour is not None and material.get("name"):
-            colours[material.get("name")] = _floats(colour.get("rgba"), 4, (0.5, 0.5, 0.5, 1.0), "material")
+        name = material.get("name")
+        if colour is not None and name:
+            where = f"{locate(files, 'material', name, source)}: material {name}"
+            colours[name] = _floats(colour.get("rgba"), 4, (0.5, 0.5, 0.5, 1.0), where)
     return colours
 
 
@@ -50,8 +97,8 @@ def _geometry(
     materials: dict,
     packages: Mapping[str, Path],
     source: Path,
+    where: str,
 ) -> Geometry:
-    where = f"{source}: link {link}"
     origin = _pose(element.find("origin"), where)
     shape = element.find("geometry")
     if shape is None or len(shape) == 0:
@@ -66,7 +113,9 @@ def _geometry(
         else:
             rgba = materials.get(material.get("name", ""))
     if kind == "mesh":
-        uri = shape[0].get("filename", "")
+        uri = shape[0].get("filename")
+        if not uri:
+            raise SvhdescError(f"{where}: <mesh> needs a 'filename'")
         path = resolve_uri(uri, packages, where)
         if not path.is_absolute():
             path = source.parent / path
@@ -75,12 +124,14 @@ def _geometry(
         scale: Vec3 = _floats(shape[0].get("scale"), 3, (1.0, 1.0, 1.0), where)  # type: ignore[assignment]
         return Geometry("mesh", origin, mesh=str(path.resolve()), scale=scale, rgba=rgba)
     if kind == "box":
-        return Geometry("box", origin, _floats(shape[0].get("size"), 3, (), where), rgba=rgba)
+        if shape[0].get("size") is None:
+            raise SvhdescError(f"{where}: <box> needs a 'size'")
+        return Geometry("box", origin, _positive(_floats(shape[0].get("size"), 3, (), where), where), rgba=rgba)
     if kind == "cylinder":
-        size = (float(shape[0].get("radius")), float(shape[0].get("length")))
-        return Geometry("cylinder", origin, size, rgba=rgba)
+        size = (_number(shape[0], "radius", None, where), _number(shape[0], "length", None, where))
+        return Geometry("cylinder", origin, _positive(size, where), rgba=rgba)
     if kind == "sphere":
-        return Geometry("sphere", origin, (float(shape[0].get("radius")),), rgba=rgba)
+        return Geometry("sphere", origin, _positive((_number(shape[0], "radius", None, where),), where), rgba=rgba)
     raise SvhdescError(f"{where}: unsupported geometry <{kind}>")
 
 
@@ -88,9 +139,11 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     if element is None:
         return None
     origin = _pose(element.find("origin"), where)
-    mass = float(element.find("mass").get("value"))
+    if element.find("mass") is None or element.find("inertia") is None:
+        raise SvhdescError(f"{where}: <inertial> needs <mass> and <inertia>")
+    mass = _number(element.find("mass"), "value", None, where)
     inertia = element.find("inertia")
-    ixx, ixy, ixz, iyy, iyz, izz = (float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+    ixx, ixy, ixz, iyy, iyz, izz = (_number(inertia, k, 0.0, where) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     if any(origin.rpy):  # the IR keeps tensors in the link frame
         rotation = rpy_matrix(origin.rpy)
@@ -99,61 +152,84 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
 
 
-def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path) -> Robot:
-    """Read links and joints; mimic tags in the source are dropped (the coupling spec decides)."""
-    materials = _materials(root)
+def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, files: Sequence[Path] = ()) -> Robot:
+    """Read links and joints; mimic tags in the source are dropped (the coupling spec decides).
+
+    ``files`` (the xacro files expanded) let errors name the file and line of the culprit.
+    """
+    files = list(files) or [source]
+    materials = _materials(root, files, source)
     links = []
     for element in root.findall("link"):
         name = element.get("name")
-        where = f"{source}: link {name}"
+        where = f"{locate(files, 'link', name, source)}: link {name}"
+        if not name:
+            raise SvhdescError(f"{where}: a link needs a name")
         links.append(
             Link(
                 name=name,
                 inertial=_inertial(element.find("inertial"), where),
-                visuals=tuple(_geometry(v, name, materials, packages, source) for v in element.findall("visual")),
-                collisions=tuple(_geometry(c, name, materials, packages, source) for c in element.findall("collision")),
+                visuals=tuple(
+                    _geometry(v, name, materials, packages, source, where) for v in element.findall("visual")
+                ),
+                collisions=tuple(
+                    _geometry(c, name, materials, packages, source, where) for c in element.findall("collision")
+                ),
             )
         )
     names = [link.name for link in links]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
-        raise SvhdescError(f"{source}: duplicate link '{dup}'")
+        raise SvhdescError(f"{locate(files, 'link', dup, source)}: duplicate link '{dup}'")
     joints = []
+    joint_names: set[str] = set()
     for element in root.findall("joint"):
         name = element.get("name")
-        where = f"{source}: joint {name}"
+        where = f"{locate(files, 'joint', name, source)}: joint {name}"
+        if not name:
+            raise SvhdescError(f"{where}: a joint needs a name")
+        if name in joint_names:
+            raise SvhdescError(f"{where}: duplicate joint '{name}'")
+        joint_names.add(name)
         kind = element.get("type")
         if kind not in {"revolute", "continuous", "prismatic", "fixed"}:
             raise SvhdescError(f"{where}: unsupported joint type {kind!r}")
         limit = element.find("limit")
         dynamics = element.find("dynamics")
-
-        def attr(el: etree._Element | None, key: str, default: float) -> float:
-            return float(el.get(key, default)) if el is not None else default
-
-        parent, child = element.find("parent").get("link"), element.find("child").get("link")
-        for link_name in (parent, child):
-            if link_name not in names:
-                raise SvhdescError(f"{where}: unknown link '{link_name}'")
+        ends = []
+        for tag in ("parent", "child"):
+            end = element.find(tag)
+            if end is None or not end.get("link"):
+                raise SvhdescError(f"{where}: needs <{tag} link=...>")
+            if end.get("link") not in names:
+                raise SvhdescError(f"{where}: unknown {tag} link '{end.get('link')}'")
+            ends.append(end.get("link"))
+        axis_element = element.find("axis")
+        axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
+        if kind != "fixed" and math.hypot(*axis) < 1e-9:
+            raise SvhdescError(f"{where}: zero joint axis {axis}")
+        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+        if kind in {"revolute", "prismatic"} and lower > upper:
+            raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}")
+        effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
+        damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
+        for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
+            if value < 0:
+                raise SvhdescError(f"{where}: {label} must be >= 0, got {value}")
         joints.append(
             Joint(
                 name=name,
                 type=kind,
-                parent=parent,
-                child=child,
+                parent=ends[0],
+                child=ends[1],
                 origin=_pose(element.find("origin"), where),
-                axis=_floats(
-                    element.find("axis").get("xyz") if element.find("axis") is not None else None,
-                    3,
-                    (1.0, 0.0, 0.0),
-                    where,
-                ),  # type: ignore[arg-type]
-                lower=attr(limit, "lower", 0.0),
-                upper=attr(limit, "upper", 0.0),
-                effort=attr(limit, "effort", 0.0),
-                velocity=attr(limit, "velocity", 0.0),
-                damping=attr(dynamics, "damping", 0.0),
-                friction=attr(dynamics, "friction", 0.0),
+                axis=axis,  # type: ignore[arg-type]
+                lower=lower,
+                upper=upper,
+                effort=effort,
+                velocity=velocity,
+                damping=damping,
+                friction=friction,
                 source=where,
             )
         )

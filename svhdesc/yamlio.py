@@ -11,21 +11,31 @@ from .errors import SvhdescError
 
 
 class Node(dict):
-    """A mapping that knows where it was written."""
+    """A mapping that knows where it was written, and where each of its keys was."""
 
     where: str = ""
+    lines: dict[Any, str]
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.lines = {}
 
 
 class _Loader(yaml.SafeLoader):
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> Node:  # type: ignore[override]
-        seen: set[Any] = set()
+        lines: dict[Any, str] = {}
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
-            if key in seen:
+            try:
+                duplicate = key in lines
+            except TypeError:  # a list or mapping as a key
+                raise SvhdescError(f"{self.name}:{key_node.start_mark.line + 1}: a key must be a plain value") from None
+            if duplicate:
                 raise SvhdescError(f"{self.name}:{key_node.start_mark.line + 1}: duplicate key '{key}'")
-            seen.add(key)
+            lines[key] = f"{self.name}:{key_node.start_mark.line + 1}"
         mapping = Node(super().construct_mapping(node, deep=True))
         mapping.where = f"{self.name}:{node.start_mark.line + 1}"
+        mapping.lines = lines
         return mapping
 
 
@@ -39,9 +49,11 @@ _Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
 
 def load_yaml(path: Path) -> Any:
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SvhdescError(f"{path}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise SvhdescError(f"{path}: not a UTF-8 text file") from None
     loader = _Loader(text)
     loader.name = str(path)
     try:
@@ -56,5 +68,10 @@ def load_yaml(path: Path) -> Any:
         loader.dispose()
 
 
-def where(node: Any, fallback: str) -> str:
+def where(node: Any, fallback: str, key: Any = None) -> str:
+    """file:line of ``node`` (of its entry ``key`` if given and known), else ``fallback``."""
+    if key is not None:
+        line = getattr(node, "lines", {}).get(key)
+        if line:
+            return line
     return getattr(node, "where", "") or fallback
