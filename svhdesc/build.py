@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 
 from .config import Config, Variant
+from .errors import SvhdescError
 from .export.mjcf import export_mjcf, export_scene
 from .export.urdf import export_urdf
 from .finite import check_finite
@@ -16,6 +17,7 @@ from .hull_source import HullSource
 from .outdir import output_directory, publish
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .timings import Timings
+from .yamlio import where
 
 
 def write_variant(
@@ -67,10 +69,34 @@ def _prepare(
 ) -> list[tuple[Variant, Source]]:
     """Read every variant, then run all the decompositions they need at once (in parallel)."""
     sources = [(v, read_source(v, extra_packages, timings)) for v in config.select(names)]
+    _check_mass_names(config, sources, extra_packages, timings)
     hulls.seed_from_outputs([out / v.name for v, _ in sources])
     with timings.stage("decompose"):
         hulls.prefetch([job for v, s in sources for job in decomposition_plan(v, s)])
     return sources
+
+
+def _check_mass_names(
+    config: Config, sources: list[tuple[Variant, Source]], extra_packages: dict[str, Path], timings: Timings
+) -> None:
+    """mass.links/inertials written in this config may name links of another of its variants (shared
+    settings), but not of none."""
+    known = {v.name: {link.name for link in s.robot.links} for v, s in sources}
+
+    def links_of(variant: Variant) -> set[str]:
+        if variant.name not in known:
+            known[variant.name] = {link.name for link in read_source(variant, extra_packages, timings).robot.links}
+        return known[variant.name]
+
+    for variant, _ in sources:
+        mass = variant.settings["mass"]
+        for section in ("links", "inertials"):
+            for name in mass[section]:
+                at = where(mass[section], str(config.path), name)
+                if not at.startswith(f"{config.path}:"):
+                    continue  # inherited (extends): a base's shared names may serve variants not declared here
+                if name not in links_of(variant) and not any(name in links_of(v) for v in config.variants.values()):
+                    raise SvhdescError(f"{at}: mass.{section}: no link {name} in any variant")
 
 
 def _write_all(

@@ -25,8 +25,11 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
             try:
                 result = func(*args, **kwargs)
             except SvhdescError as exc:
-                click.echo(f"error: {exc}", err=True)
-                sys.exit(2)
+                _error(str(exc))
+            except OSError as exc:  # safety net: the real checks name the culprit where it is read
+                _error(f"{exc.filename or 'file system'}: {exc.strerror or exc}")
+            except UnicodeDecodeError as exc:
+                _error(f"input is not UTF-8 text ({exc.reason} at byte {exc.start})")
             finally:
                 for warning in caught:
                     if not issubclass(warning.category, (DeprecationWarning, PendingDeprecationWarning)):
@@ -34,6 +37,13 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
         return result
 
     return wrapper
+
+
+def _error(message: str) -> None:
+    # A path that is not UTF-8 must not turn the error line itself into a traceback.
+    printable = message.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    click.echo(f"error: {printable.splitlines()[0] if printable else 'failed'}", err=True)
+    sys.exit(2)
 
 
 config_option = click.option(
@@ -52,10 +62,16 @@ package_option = click.option(
 )
 
 
+def _config_exists(config_path: Path | None) -> None:
+    if config_path is not None and not config_path.is_file():
+        raise SvhdescError(f"{config_path}: no such config file")
+
+
 def _load(config_path: Path | None, packages: tuple[str, ...]) -> tuple[Any, dict[str, Path]]:
     from .config import load_config
     from .packages import package_map, parse_package_option
 
+    _config_exists(config_path)
     config = load_config(config_path or DEFAULT_CONFIG)
     explicit = dict(parse_package_option(p) for p in packages)
     return config, package_map(explicit)
@@ -274,6 +290,11 @@ def validate_command(
     from .validate.report import render_report, write_json
 
     selected = select_checks(checks)
+    if config_path is not None:  # an explicit config must be good, not silently skipped
+        from .config import load_config
+
+        _config_exists(config_path)
+        load_config(config_path)
     if (urdf_path is None) != (mjcf_path is None):
         raise SvhdescError("--urdf and --mjcf go together")
     if urdf_path is not None and mjcf_path is not None:

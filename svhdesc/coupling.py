@@ -10,6 +10,7 @@ import numpy as np
 
 from .errors import SvhdescError
 from .ir import Channel, Coupling, Mimic, Robot
+from .settings import number, numbers, text
 from .yamlio import load_yaml, where
 
 MAX_ORDER = 4
@@ -28,39 +29,52 @@ class CouplingSpec:
     lines: dict[str, str]  # unprefixed joint or channel -> file:line
 
 
-def _number_list(value: object, at: str, what: str) -> tuple[float, ...]:
-    if not isinstance(value, list) or not all(isinstance(v, (int, float)) for v in value):
-        raise SvhdescError(f"{at}: {what} must be a list of numbers")
-    return tuple(float(v) for v in value)
-
-
 def load_spec(path: Path) -> CouplingSpec:
     data = load_yaml(path)
     if not isinstance(data, dict) or not isinstance(data.get("channels"), list):
-        raise SvhdescError(f"{path}: coupling spec needs a 'channels' list")
+        raise SvhdescError(f"{where(data, str(path))}: coupling spec needs a 'channels' list")
+    unknown = [str(k) for k in data if k not in {"channels", "couplings"}]
+    if unknown:
+        raise SvhdescError(
+            f"{where(data, str(path), unknown[0])}: unknown key(s) {sorted(unknown)} in the coupling spec"
+        )
+    couplings_data = data.get("couplings")
+    if couplings_data is not None and not isinstance(couplings_data, list):
+        raise SvhdescError(f"{where(data, str(path), 'couplings')}: 'couplings' must be a list")
     channels, couplings, lines = [], [], {}
     for item in data["channels"]:
-        at = where(item, str(path))
+        at = where(item, where(data, str(path), "channels"))
         if not isinstance(item, dict) or "name" not in item:
             raise SvhdescError(f"{at}: channel needs a name")
         unknown = set(item) - {"name", "range", "effort", "velocity"}
         if unknown:
-            raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(unknown)}")
-        name = str(item["name"])
+            raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(map(str, unknown))}")
+        name = text(item["name"], f"{at}: channel name")
         if name in lines:
             raise SvhdescError(f"{at}: channel {name} declared twice (first at {lines[name]})")
-        lower, upper = _number_list(item.get("range"), at, f"channel {name}: range")
+        missing = [key for key in ("range", "effort", "velocity") if key not in item]
+        if missing:
+            raise SvhdescError(f"{at}: channel {name} needs {', '.join(missing)}")
+        lower, upper = numbers((2,))(item["range"], f"{where(item, at, 'range')}: channel {name}: range")
         if not lower < upper:
-            raise SvhdescError(f"{at}: channel {name}: empty range [{lower}, {upper}]")
-        channels.append(Channel(name, name, lower, upper, float(item["effort"]), float(item["velocity"])))
+            raise SvhdescError(f"{where(item, at, 'range')}: channel {name}: empty range [{lower}, {upper}]")
+        effort = number(0.0, strict=True)(item["effort"], f"{where(item, at, 'effort')}: channel {name}: effort")
+        velocity = number(0.0, strict=True)(
+            item["velocity"], f"{where(item, at, 'velocity')}: channel {name}: velocity"
+        )
+        channels.append(Channel(name, name, lower, upper, effort, velocity))
         lines[name] = at
     channel_names = {c.name for c in channels}
-    for item in data.get("couplings") or []:
-        at = where(item, str(path))
+    for item in couplings_data or []:
+        at = where(item, where(data, str(path), "couplings"))
         if not isinstance(item, dict) or not {"joint", "follows", "poly"} <= set(item):
             raise SvhdescError(f"{at}: coupling needs joint, follows and poly")
-        joint, leader = str(item["joint"]), str(item["follows"])
-        coeffs = _number_list(item["poly"], at, f"coupled joint {joint}: poly")
+        unknown = set(item) - {"joint", "follows", "poly"}
+        if unknown:
+            raise SvhdescError(f"{at}: coupling: unknown key(s) {sorted(map(str, unknown))}")
+        joint = text(item["joint"], f"{at}: coupled joint name")
+        leader = text(item["follows"], f"{at}: coupled joint {joint}: follows")
+        coeffs = tuple(numbers()(item["poly"], f"{where(item, at, 'poly')}: coupled joint {joint}: poly"))
         if not 1 <= len(coeffs) <= MAX_ORDER + 1:
             raise SvhdescError(f"{at}: coupled joint {joint}: poly has {len(coeffs)} terms (1 to 5 allowed)")
         if joint in channel_names:

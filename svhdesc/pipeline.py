@@ -20,6 +20,7 @@ from .stages.collisions import add_excludes
 from .stages.contact import add_contact
 from .stages.geometry import bake_meshes, decomposition_jobs
 from .stages.inertials import add_inertials, link_solid
+from .stages.semantics import check_driven, check_hand_names, check_keyframes
 from .timings import Timings
 from .urdf_reader import read_urdf
 from .xacro_expand import expand_xacro
@@ -78,11 +79,18 @@ def compile_variant(
         robot = add_contact(robot, variant.settings["contact"], variant.hand)
         robot = add_actuation(robot, variant.settings)
         robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
+        check_hand_names(robot, variant.hand, _at(variant))
+        check_driven(robot)
+        check_keyframes(robot, variant.settings["keyframes"], _at(variant))
         bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
         robot = add_force_sensor(robot, variant.hand, bounds)
     with timings.stage("exclusions"):
         robot = add_excludes(robot, assets, variant.settings)
     return Compiled(robot, assets, [*source.inputs, spec_path])
+
+
+def _at(variant: Variant) -> str:
+    return getattr(variant.settings, "where", "") or str(variant.config_dir)
 
 
 def _mesh_sources(tree: etree._Element, packages: dict[str, Path], source: Path) -> list[Path]:

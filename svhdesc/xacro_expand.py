@@ -56,7 +56,11 @@ def expand_xacro(
         where = Path(xacro.filestack[-1]) if xacro.filestack else path
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         quoted = re.search(r"'([^']+)'", message)
-        raise SvhdescError(f"{_locate(where, quoted.group(1) if quoted else None)}: xacro: {message}") from None
+        token = quoted.group(1) if quoted else None
+        # A macro's body fails where it is called: look for the culprit in the included files too.
+        files = [where, *(Path(f) for f in xacro.all_includes if Path(f) != where)]
+        located = next((found for f in files if (found := _locate(f, token)) != str(f)), str(where))
+        raise SvhdescError(f"{located}: xacro: {message}") from None
     finally:
         subst._eval_find, subst._eval_dict["find"] = saved
     inputs = [path.resolve(), *(Path(f).resolve() for f in xacro.all_includes)]

@@ -70,8 +70,15 @@ def test_packages_come_from_ros_package_path_and_explicit_map(tmp_path: Path) ->
 
 
 def test_unknown_config_key_is_refused(tmp_path: Path) -> None:
+    # A config that is valid but for the misspelt key: the refusal can only come from that key.
+    variant = {"xacro": str(REPO / "xacro" / "svh_hand.urdf.xacro"), "args": {"side": "right"}}
+    good = {"extends": str(REPO / "config" / "svhdesc.yaml"), "contact": {"model": "point"}, "variants": {"v": variant}}
+    path = tmp_path / "good.yaml"
+    path.write_text(yaml.safe_dump(good))
+    assert run_cli("list", "--config", str(path)).returncode == 0
     path = tmp_path / "bad.yaml"
-    path.write_text(f"extends: {REPO / 'config' / 'svhdesc.yaml'}\ncontact: {{modle: point}}\nvariants: {{}}\n")
+    path.write_text(yaml.safe_dump({**good, "contact": {"modle": "point"}}))
     result = run_cli("build", "--config", str(path), "--out", str(tmp_path / "out"))
     assert result.returncode == 2
-    assert "bad.yaml" in result.stderr
+    assert result.stderr.startswith(f"error: {path}:") and "['modle']" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()

@@ -31,7 +31,7 @@ def arm_joints(robot: Robot, arm: dict[str, Any]) -> list[str]:
     names = {j.name for j in robot.joints}
     missing = [j for j in arm["joints"] if j not in names]
     if missing:
-        raise SvhdescError(f"arm joints not in the robot: {missing}")
+        raise SvhdescError(f"{where(arm, 'arm', 'joints')}: arm.joints: not in the robot: {missing}")
     return list(arm["joints"])
 
 
@@ -58,7 +58,7 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
             )
         )
     names = arm_joints(robot, arm)
-    kps = _per_joint(arm.get("kp", 1000.0), len(names), "arm.kp") if names else []
+    kps = _per_joint(arm.get("kp", 1000.0), len(names), f"{where(arm, 'arm', 'kp')}: arm.kp") if names else []
     for name, kp in zip(names, kps):
         j = joints[name]
         actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0))))
@@ -78,10 +78,13 @@ def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
                 limit_solref=(float(solref[0]), float(solref[1])) if solref else None,
             )
         elif joint.name in names:
+            solref = arm.get("limit_solref")
             joint = replace(
                 joint,
                 damping=float(arm.get("joint_damping", 0.0)),
                 armature=float(arm.get("joint_armature", 0.0)),
+                limit_margin=float(arm.get("limit_margin", 0.0)),
+                limit_solref=(float(solref[0]), float(solref[1])) if solref else None,
             )
         updated.append(joint)
     transmissions = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)

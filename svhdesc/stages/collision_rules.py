@@ -9,6 +9,7 @@ from typing import Any
 from ..decompose import LINK_CLASS_PARAMS, DecompParams
 from ..errors import SvhdescError
 from ..ir import Robot
+from ..yamlio import where
 
 MODES = ("hull", "decompose", "primitive")
 PRIMITIVES = ("capsule", "cylinder", "box")
@@ -46,32 +47,46 @@ def _rule(entry: dict[str, Any], base: CollisionRule, global_params: dict[str, A
 
 def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -> dict[str, CollisionRule]:
     """Rule per link with collision geometry: first matching class, then per-link overrides."""
+    at = where(collision, "collision")
     unknown = set(collision) - {"mode", "primitive", "params", "classes", "links"}
     if unknown:
-        raise SvhdescError(f"collision: unknown key(s) {sorted(unknown)}")
+        raise SvhdescError(f"{at}: collision: unknown key(s) {sorted(map(str, unknown))}")
     global_params = collision.get("params") or {}
+    if not isinstance(global_params, dict):
+        raise SvhdescError(f"{where(collision, at, 'params')}: collision.params must be a mapping")
     default = _rule(
-        {k: v for k, v in collision.items() if k in {"mode", "primitive"}}, CollisionRule(), {}, "collision"
+        {k: v for k, v in collision.items() if k in {"mode", "primitive"}},
+        CollisionRule(),
+        {},
+        f"{where(collision, at, 'mode')}: collision",
     )
     classes = []
-    for index, entry in enumerate(collision.get("classes") or []):
+    entries = collision.get("classes") or []
+    if not isinstance(entries, list):
+        raise SvhdescError(f"{where(collision, at, 'classes')}: collision.classes must be a list")
+    for index, entry in enumerate(entries):
+        label = f"{where(entry, where(collision, at, 'classes'))}: collision.classes[{index}]"
+        if not isinstance(entry, dict) or not isinstance(entry.get("links", []), list):
+            raise SvhdescError(f"{label}: must be a mapping with a list of 'links'")
         patterns = [str(p).format(hand=hand_prefix) for p in entry.get("links", [])]
-        classes.append((patterns, _rule(entry, default, global_params, f"collision.classes[{index}]")))
+        classes.append((patterns, _rule(entry, default, global_params, label)))
     overrides = collision.get("links") or {}
+    if not isinstance(overrides, dict) or not all(isinstance(v, dict) for v in overrides.values()):
+        raise SvhdescError(f"{where(collision, at, 'links')}: collision.links must map links to rules")
     names = {link.name for link in robot.links}
     for name in overrides:
         if str(name).format(hand=hand_prefix) not in names and "{hand}" not in str(name):
-            raise SvhdescError(f"collision.links: unknown link {name!r}")
+            raise SvhdescError(f"{where(overrides, at, name)}: collision.links: unknown link {name!r}")
     rules = {}
     for link in robot.links:
         if not link.collisions:
             continue
         rule = next(
             (r for patterns, r in classes if any(fnmatch.fnmatchcase(link.name, p) for p in patterns)),
-            _rule({}, default, global_params, "collision"),
+            _rule({}, default, global_params, f"{at}: collision"),
         )
         for name, entry in overrides.items():
             if str(name).format(hand=hand_prefix) == link.name:
-                rule = _rule(entry, rule, {}, f"collision.links.{name}")
+                rule = _rule(entry, rule, {}, f"{where(overrides, at, name)}: collision.links.{name}")
         rules[link.name] = rule
     return rules

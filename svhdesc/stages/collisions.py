@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
+from ..errors import SvhdescError
 from ..ir import Robot
 from .assets import Assets
 
@@ -44,7 +45,10 @@ def touching_at_rest(robot: Robot, assets: Assets, settings: dict[str, Any]) -> 
     from ..export.mjcf import export_mjcf
 
     xml = export_mjcf(robot, settings).decode()
-    model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
+    try:
+        model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
+    except ValueError as exc:  # MuJoCo's compiler names the element; the IR checks should catch it first
+        raise SvhdescError(f"{robot.name}: MuJoCo refuses the model: {str(exc).splitlines()[0]}") from None
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     pairs = set()

@@ -91,13 +91,19 @@ def bake_meshes(
 ) -> Robot:
     """Replace every mesh reference by assets; scales are baked into the vertices."""
     rules = rules or {}
-    stems: dict[str, str] = {}  # asset stem -> source directory, to catch two sources with one name
+    stems: dict[str, str] = {}  # asset stem -> source file, to catch two sources with one name
     done: dict[tuple, list[Geometry]] = {}
 
     def stem_of(source: Path) -> str:
         stem = source.stem
-        if stems.setdefault(stem, str(source.parent)) != str(source.parent):
-            stem = f"{source.parent.name}_{stem}"
+        owner = Path(stems.setdefault(stem, str(source)))
+        if owner != source:  # a.stl beside a.dae, or a.dae in two directories: both must survive
+            stem = (
+                f"{stem}_{source.suffix.lstrip('.')}"
+                if owner.parent == source.parent
+                else f"{source.parent.name}_{stem}"
+            )
+            stems.setdefault(stem, str(source))
         return stem
 
     def bake(geometry: Geometry, role: str, rule: CollisionRule) -> list[Geometry]:

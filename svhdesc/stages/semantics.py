@@ -1,0 +1,56 @@
+"""Checks across sections that no single value check can make: names that must exist, keyframes
+inside the limits, and every movable joint driven (a channel, a coupled joint or an actuated arm joint)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..errors import SvhdescError
+from ..ir import Robot
+from ..yamlio import where
+
+LIMIT_TOL = 1e-9
+
+
+def check_hand_names(robot: Robot, hand: dict[str, Any], at: str) -> None:
+    links = {link.name for link in robot.links}
+    for tip in hand.get("fingertips") or []:
+        if f"{hand['prefix']}_{tip}" not in links:
+            raise SvhdescError(f"{where(hand, at, 'fingertips')}: hand.fingertips: no link {hand['prefix']}_{tip}")
+    tip = hand.get("force_sensor")
+    if tip and f"{hand['prefix']}_{tip}" not in links:
+        raise SvhdescError(f"{where(hand, at, 'force_sensor')}: hand.force_sensor: no link {hand['prefix']}_{tip}")
+
+
+def check_driven(robot: Robot) -> None:
+    """An undriven joint swings free in simulation: refuse it, and actuators that cannot move."""
+    channels = {c.joint for c in robot.channels}
+    actuated = {a.joint: a for a in robot.actuators}
+    for joint in robot.joints:
+        if joint.movable and joint.name not in channels and joint.mimic is None and joint.name not in actuated:
+            raise SvhdescError(
+                f"{joint.source}: is neither a channel, a coupled joint nor an actuated arm joint: nothing drives it"
+            )
+    for actuator in robot.actuators:
+        joint = robot.joint(actuator.joint)
+        if actuator.effort <= 0 or joint.velocity <= 0:
+            raise SvhdescError(
+                f"{joint.source}: an actuated joint needs effort > 0 and velocity > 0 "
+                f"(has {actuator.effort:g} and {joint.velocity:g})"
+            )
+        if actuator.lower >= actuator.upper:
+            raise SvhdescError(f"{joint.source}: an actuated joint needs lower < upper")
+
+
+def check_keyframes(robot: Robot, keyframes: dict[str, Any], at: str) -> None:
+    joints = {j.name: j for j in robot.joints}
+    for frame in robot.keyframes:
+        for name, value in frame.qpos:
+            joint = joints[name]
+            if joint.type == "continuous":
+                continue
+            if not joint.lower - LIMIT_TOL <= value <= joint.upper + LIMIT_TOL:
+                raise SvhdescError(
+                    f"{where(keyframes, at, frame.name)}: keyframe {frame.name} puts {name} at {value:.6g}, "
+                    f"outside its limit [{joint.lower:g}, {joint.upper:g}]"
+                )
