@@ -244,6 +244,7 @@ class Simulation:
     noslip_iterations: int = _field(0, integer(0))
     coupling_solref: list[float] = _field([0.002, 1.0], solref)
     coupling_solimp: list[float] = _field([0.99, 0.999, 0.0001, 0.5, 2.0], numbers((3, 5)))
+    gravity_compensation: bool = _field(True, boolean)
 
 
 @dataclass(frozen=True)
