@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import shutil
 import struct
-from collections.abc import Callable
+import subprocess
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -323,3 +324,41 @@ def test_bad_package_option_and_unknown_variant(mini: tuple[Path, Path]) -> None
 def test_non_utf8_config_path(tmp_path: Path) -> None:
     name = tmp_path / "caf\udce9.yaml"  # a file name that is not valid UTF-8
     fails_cleanly(None, ["build", "--config", str(name), "--out", str(tmp_path / "out")], "caf")
+
+
+@pytest.fixture
+def tmpfs(tmp_path: Path) -> Iterator[Callable[..., Path]]:
+    """Mount a small tmpfs (needs root); skip where mounting is not allowed."""
+    mounts: list[Path] = []
+
+    def mount(size: str, name: str = "fs") -> Path:
+        point = tmp_path / name
+        point.mkdir()
+        result = subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(point)], capture_output=True
+        )
+        if result.returncode != 0:
+            pytest.skip("cannot mount a tmpfs here (needs root)")
+        mounts.append(point)
+        return point
+
+    yield mount
+    for point in reversed(mounts):
+        subprocess.run(["umount", "-l", str(point)], check=False)
+
+
+def test_disk_full(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> None:
+    project, _ = mini
+    out = tmpfs("12k")
+    message = fails_cleanly(out, ["build", "--config", str(project / "mini.yaml"), "--out", str(out)], "no space left")
+    assert str(out) in message
+    assert list(out.iterdir()) == []  # no staging directory left behind
+
+
+def test_read_only_out(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> None:
+    project, good = mini
+    out = tmpfs("1m")
+    shutil.copytree(good / "mini", out / "mini")
+    subprocess.run(["mount", "-o", "remount,ro", str(out)], check=True)
+    args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force"]
+    fails_cleanly(out, args, "Read-only file system")
