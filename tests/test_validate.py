@@ -24,7 +24,7 @@ VARIANT = "svh_right"
 SOURCE = Path(__file__).parents[1] / "generated" / VARIANT
 PREFIX = "right_hand"
 # The static consistency checks the faults target: fast, no simulation, no external tools.
-STATIC = "coupling_spec,kinematics,inertia,min_mass,mass_agreement,limits,transmissions"
+STATIC = "coupling_spec,kinematics,inertia,min_mass,mass_agreement,limits,transmissions,semantics"
 
 pytestmark = pytest.mark.skipif(
     not (SOURCE / f"{VARIANT}.xml").is_file(), reason=f"{SOURCE} is not built (run: svhdesc build {VARIANT})"
@@ -124,6 +124,28 @@ def mjcf_narrow_coupled_limit(tree: etree._ElementTree) -> None:
     joint.set("range", f"{joint.get('range').split()[0]} 0.5")
 
 
+def mjcf_negative_effort(tree: etree._ElementTree) -> None:
+    """A channel whose forcerange is upside down (the servo could only push the wrong way)."""
+    one(tree, f"//actuator/position[@joint='{PREFIX}_Pinky']").set("forcerange", "1 -1")
+
+
+def mjcf_undriven_joint(tree: etree._ElementTree) -> None:
+    """A coupling removed: j13 swings free."""
+    equality = one(tree, f"//equality/joint[@joint1='{PREFIX}_j13']")
+    equality.getparent().remove(equality)
+
+
+def mjcf_keyframe_beyond_limit(tree: etree._ElementTree) -> None:
+    key = one(tree, "//keyframe/key[@name='test']")
+    qpos = key.get("qpos").split()
+    qpos[-1] = "6.79"
+    key.set("qpos", " ".join(qpos))
+
+
+def urdf_zero_velocity(tree: etree._ElementTree) -> None:
+    one(tree, f"/robot/joint[@name='{PREFIX}_Pinky']/limit").set("velocity", "0")
+
+
 FAULTS = {
     "mjcf_multiplier": (None, mjcf_multiplier, "coupling_spec"),
     "urdf_origin_1mm": (urdf_origin, None, "kinematics"),
@@ -132,6 +154,10 @@ FAULTS = {
     "urdf_triangle_inequality": (urdf_triangle_violation, None, "inertia"),
     "urdf_missing_transmission": (urdf_missing_transmission, None, "transmissions"),
     "narrow_coupled_limit": (urdf_narrow_coupled_limit, mjcf_narrow_coupled_limit, "limits"),
+    "mjcf_negative_effort": (None, mjcf_negative_effort, "semantics"),
+    "mjcf_undriven_joint": (None, mjcf_undriven_joint, "semantics"),
+    "mjcf_keyframe_beyond_limit": (None, mjcf_keyframe_beyond_limit, "semantics"),
+    "urdf_zero_velocity": (urdf_zero_velocity, None, "semantics"),
 }
 
 

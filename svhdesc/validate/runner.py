@@ -17,6 +17,7 @@ from .options import Options
 from .pair import ModelPair, load_pair
 from .parsers import check_sdformat, check_urdfdom, check_yourdfpy
 from .report import FAIL, Check, VariantReport
+from .semantics import check_semantics
 from .simulate import check_simulation
 from .transmissions import check_transmissions
 
@@ -36,6 +37,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_mass_agreement, ("mass_agreement",)),
     (check_limits, ("limits",)),
     (check_transmissions, ("transmissions",)),
+    (check_semantics, ("semantics",)),
     (check_self_collision, ("self_collision",)),
     (check_contact_stability, ("contact_stability",)),
 ]
