@@ -12,6 +12,7 @@ from .collision import check_self_collision
 from .contact_stability import check_contact_stability
 from .coupling import check_coupling_spec, check_limits
 from .kinematics import check_kinematics
+from .load_limits import check_load_limits
 from .mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
 from .options import Options
 from .pair import ModelPair, load_pair
@@ -38,6 +39,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_limits, ("limits",)),
     (check_transmissions, ("transmissions",)),
     (check_semantics, ("semantics",)),
+    (check_load_limits, ("load_limits",)),
     (check_self_collision, ("self_collision",)),
     (check_contact_stability, ("contact_stability",)),
 ]
@@ -46,6 +48,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "parsers": ("urdfdom", "yourdfpy", "sdformat"),
     "mass": ("mass_budget", "inertia", "min_mass", "mass_agreement"),
     "coupling": ("coupling_tracking", "coupling_spec", "limits"),
+    "margins": ("coupling_tracking", "load_limits"),
 }
 
 
