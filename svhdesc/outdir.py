@@ -108,7 +108,8 @@ def output_directory(out: Path) -> Iterator[Path]:
     """
     if out.exists() and not out.is_dir():
         raise SvhdescError(f"{out}: --out is not a directory")
-    created = not out.exists()
+    # The directories this build creates (out and missing parents), removed again if it fails.
+    created = [d for d in (out, *out.parents) if not d.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -124,11 +125,11 @@ def output_directory(out: Path) -> Iterator[Path]:
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
-        if created:
+        for directory in created:
             try:
-                out.rmdir()  # only if empty: the build failed before swapping anything in
+                directory.rmdir()  # only if empty: the build failed before swapping anything in
             except OSError:
-                pass
+                break
 
 
 def publish(staging: Path, out: Path, names: list[str]) -> None:

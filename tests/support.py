@@ -8,11 +8,14 @@ import sys
 import tempfile
 from pathlib import Path
 
+from svhdesc.config import load_config
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 VENDOR_SVH = SHARED / "vendor" / "schunk_svh_driver"
 VENDOR_UR = SHARED / "vendor" / "ur_description"
-VARIANTS = ("svh_right", "svh_left", "ur5_svh_right")
+# From the config, not a copy of it: a variant added there is tested everywhere.
+VARIANTS = tuple(load_config(REPO / "config" / "svhdesc.yaml").variants)
 
 
 def run_cli(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess[str]:

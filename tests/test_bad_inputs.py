@@ -288,7 +288,7 @@ def test_no_empty_out_is_left_behind(mini: tuple[Path, Path], tmp_path: Path) ->
     edit(project / "coupling.yaml", "effort: 1.0", "effort: -1.0")
     fresh = tmp_path / "fresh" / "out"
     fails_cleanly(None, ["build", "--config", str(project / "mini.yaml"), "--out", str(fresh)], "effort")
-    assert not fresh.exists()
+    assert not fresh.exists() and not fresh.parent.exists()
 
 
 @pytest.mark.parametrize("command", ["list", "info", "validate"])

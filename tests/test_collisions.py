@@ -19,7 +19,7 @@ from lxml import etree
 
 from svhdesc.decompose import LINK_CLASS_PARAMS
 
-from .support import REPO, VENDOR_SVH, VENDOR_UR, built
+from .support import REPO, VARIANTS, VENDOR_SVH, VENDOR_UR, built
 
 GENERATED = REPO / "generated"
 
@@ -100,7 +100,7 @@ def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
     assert decomposition_counts(cli(*args, "--rebuild-collisions", cache=tmp_path / "c").stderr) == (1, 0, 0)
 
 
-@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
+@pytest.mark.parametrize("variant", VARIANTS)
 def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None:
     mjcf = etree.parse(str(GENERATED / variant / f"{variant}.xml"))
     caps = {"palm": 8, "fingertip": 4, "phalanx": 4, "arm": 6}

@@ -19,6 +19,8 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
+from .support import VARIANTS
+
 REPO = Path(__file__).resolve().parents[1]
 VARIANT = "svh_right"
 SOURCE = Path(__file__).parents[1] / "generated" / VARIANT
@@ -216,7 +218,7 @@ def test_unmodified_pair_passes_the_static_checks(tmp_path: Path) -> None:
 
 # Known model issues (owned by the model, not the checker): sdformat drops the joints below links
 # without <inertial>, and the pressed index finger's joints move more than the 1e-9 rad MAD bound.
-@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
+@pytest.mark.parametrize("variant", VARIANTS)
 def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
     """CI's `svhdesc validate` over every committed variant, the system tools included."""
     report = tmp_path / "report.json"
