@@ -34,7 +34,7 @@ import numpy as np
 import trimesh
 
 from svhdesc.errors import SvhdescError
-from svhdesc.meshes import stl_bytes
+from svhdesc.meshes import mesh_from_stl, stl_bytes
 
 __all__ = [
     "LINK_CLASS_PARAMS",
@@ -52,7 +52,6 @@ __all__ = [
 # Bump when anything in the post-processing below changes its output: it is part of every key,
 # so stale cache entries simply stop matching.
 _ALGORITHM_VERSION = "svhdesc.decompose/1"
-_STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 _PREPROCESS_MODES = ("auto", "on", "off")
 
 # CoACD runs started by (or on behalf of) this process: in-process calls of `decompose` plus jobs
@@ -154,18 +153,8 @@ LINK_CLASS_PARAMS: dict[str, DecompParams] = {
 # --------------------------------------------------------------------------- STL canonical form
 
 
-def _mesh_from_stl(data: bytes) -> trimesh.Trimesh:
-    """Parse a binary STL, merging exactly equal vertices (no tolerance, so nothing collapses)."""
-    if len(data) < 84:
-        raise ValueError("binary STL shorter than its 84-byte header")
-    count = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
-    if len(data) != 84 + count * _STL_RECORD.itemsize:
-        raise ValueError(f"binary STL size {len(data)} does not match its {count} triangles")
-    records = np.frombuffer(data, dtype=_STL_RECORD, count=count, offset=84)
-    corners = records["vertices"].reshape(-1, 3).astype(np.float64)
-    vertices, inverse = np.unique(corners, axis=0, return_inverse=True)
-    faces = inverse.reshape(-1, 3).astype(np.int64)
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+# Kept under its old name for callers and tests: the codec lives in svhdesc.meshes.
+_mesh_from_stl = mesh_from_stl
 
 
 def cache_key(mesh: trimesh.Trimesh, params: DecompParams) -> str:

@@ -12,7 +12,7 @@ from pathlib import Path
 import trimesh
 
 from .decompose import DecompParams, HullCache, cache_key, parallel_decompose
-from .meshes import stl_bytes
+from .meshes import mesh_from_stl, stl_bytes
 
 
 def default_cache_dir() -> Path:
@@ -20,12 +20,6 @@ def default_cache_dir() -> Path:
     if explicit:
         return Path(explicit)
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "svhdesc" / "hulls"
-
-
-def _mesh(data: bytes) -> trimesh.Trimesh:
-    mesh = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="stl", process=False)
-    mesh.merge_vertices(digits_vertex=12)
-    return mesh
 
 
 @dataclass
@@ -58,6 +52,13 @@ class HullSource:
                 else:
                     self.seeds[key] = blobs
 
+    def _seeded(self, key: str) -> list[trimesh.Trimesh] | None:
+        """Committed hulls for ``key``; a file that does not parse (its manifest edited to match) is ignored."""
+        try:
+            return [mesh_from_stl(b) for b in self.seeds[key]] if key in self.seeds else None
+        except ValueError:
+            return None
+
     def prefetch(self, jobs: list[tuple[str, trimesh.Trimesh, DecompParams]]) -> None:
         """Decompose every job not yet known, in parallel; later ``get`` calls are lookups."""
         todo = []
@@ -65,8 +66,9 @@ class HullSource:
             key = cache_key(mesh, params)
             if key in self.results:
                 continue
-            if key in self.seeds and not self.force:
-                self.results[key] = [_mesh(b) for b in self.seeds[key]]
+            seeded = self._seeded(key) if not self.force else None
+            if seeded is not None:
+                self.results[key] = seeded
                 self.counts["committed"] += 1
             else:
                 todo.append((key, mesh, params))

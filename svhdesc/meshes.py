@@ -159,6 +159,20 @@ def stl_bytes(mesh: trimesh.Trimesh) -> bytes:
     return STL_HEADER + np.uint32(n).astype("<u4").tobytes() + records.tobytes()
 
 
+def mesh_from_stl(data: bytes) -> trimesh.Trimesh:
+    """Parse a binary STL, merging exactly equal vertices (no tolerance, so nothing collapses)."""
+    if len(data) < 84:
+        raise ValueError("binary STL shorter than its 84-byte header")
+    count = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
+    if len(data) != 84 + count * _STL_RECORD.itemsize:
+        raise ValueError(f"binary STL size {len(data)} does not match its {count} triangles")
+    records = np.frombuffer(data, dtype=_STL_RECORD, count=count, offset=84)
+    corners = records["vertices"].reshape(-1, 3).astype(np.float64)
+    vertices, inverse = np.unique(corners, axis=0, return_inverse=True)
+    faces = inverse.reshape(-1, 3).astype(np.int64)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+
+
 def convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """Convex hull of the vertices (qhull), independent of vertex order, normals outward."""
     points = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0)

@@ -13,6 +13,7 @@ from .coupling import apply_spec, load_spec
 from .hull_source import HullSource
 from .ir import Robot
 from .packages import resolve_uri
+from .rest_contacts import touching_at_rest
 from .stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from .stages.assets import Assets
 from .stages.collision_rules import collision_rules
@@ -85,7 +86,7 @@ def compile_variant(
         bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
         robot = add_force_sensor(robot, variant.hand, bounds)
     with timings.stage("exclusions"):
-        robot = add_excludes(robot, assets, variant.settings)
+        robot = add_excludes(robot, lambda r: touching_at_rest(r, assets, variant.settings))
     return Compiled(robot, assets, [*source.inputs, spec_path])
 
 

@@ -6,12 +6,10 @@ in the zero configuration is a modelling overlap, not a contact a controller cou
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
 
-from ..errors import SvhdescError
 from ..ir import Robot
-from .assets import Assets
 
 
 def adjacent_pairs(robot: Robot) -> set[tuple[str, str]]:
@@ -39,28 +37,11 @@ def adjacent_pairs(robot: Robot) -> set[tuple[str, str]]:
     return pairs
 
 
-def touching_at_rest(robot: Robot, assets: Assets, settings: dict[str, Any]) -> set[tuple[str, str]]:
-    import mujoco
-
-    from ..export.mjcf import export_mjcf
-
-    xml = export_mjcf(robot, settings).decode()
-    try:
-        model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
-    except ValueError as exc:  # MuJoCo's compiler names the element; the IR checks should catch it first
-        raise SvhdescError(f"{robot.name}: MuJoCo refuses the model: {str(exc).splitlines()[0]}") from None
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    pairs = set()
-    for contact in data.contact[: data.ncon]:
-        bodies = [model.body(model.geom_bodyid[g]).name for g in (contact.geom1, contact.geom2)]
-        pairs.add((bodies[0], bodies[1]))
-    return pairs
-
-
-def add_excludes(robot: Robot, assets: Assets, settings: dict[str, Any]) -> Robot:
+def add_excludes(robot: Robot, touching: Callable[[Robot], set[tuple[str, str]]]) -> Robot:
+    """Adjacent pairs, then the pairs ``touching`` finds in contact at rest with those excluded (the
+    pipeline supplies the probe: a stage does not reach into an exporter)."""
     order = {link.name: i for i, link in enumerate(robot.links)}
     pairs = adjacent_pairs(robot)
-    pairs |= touching_at_rest(replace(robot, excludes=tuple(pairs)), assets, settings)
+    pairs |= touching(replace(robot, excludes=tuple(pairs)))
     normalised = {tuple(sorted(pair, key=order.__getitem__)) for pair in pairs}
     return replace(robot, excludes=tuple(sorted(normalised, key=lambda p: (order[p[0]], order[p[1]]))))
