@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import filecmp
-import json
 import tempfile
 from pathlib import Path
 
+from . import manifest as manifest_file
 from .config import Config, Variant
 from .errors import SvhdescError
 from .export.mjcf import export_mjcf, export_scene
@@ -63,7 +63,7 @@ def write_variant(
         "decompositions": compiled.assets.decompositions,
         "tools": tool_versions(),
     }
-    (directory / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+    manifest_file.write(directory, manifest)
 
 
 def _prepare(

@@ -8,12 +8,12 @@ sends the variant through the full build.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 from functools import cache
 from importlib import metadata
 from pathlib import Path
 
+from . import manifest as manifest_file
 from .config import Variant
 
 TOOLS = ("svhdesc", "xacro", "lxml", "numpy", "trimesh", "pycollada", "scipy", "coacd", "manifold3d", "mujoco")
@@ -78,9 +78,8 @@ def resolve_portable(name: str, packages: dict[str, Path], config_dir: Path) -> 
 
 
 def up_to_date(variant: Variant, directory: Path, packages: dict[str, Path]) -> bool:
-    try:
-        manifest = json.loads((directory / "manifest.json").read_text())
-    except (OSError, ValueError):
+    manifest = manifest_file.read(directory)
+    if manifest is None:
         return False
     if manifest.get("tools") != tool_versions():
         return False
@@ -90,7 +89,7 @@ def up_to_date(variant: Variant, directory: Path, packages: dict[str, Path]) -> 
             return False
     outputs = manifest.get("outputs", {})
     present = {p.relative_to(directory).as_posix() for p in directory.rglob("*") if p.is_file()}
-    if present != set(outputs) | {"manifest.json"}:
+    if present != set(outputs) | {manifest_file.FILE}:
         return False
     return all(sha256((directory / rel).read_bytes()) == digest for rel, digest in outputs.items())
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import sys
 from dataclasses import dataclass, field
@@ -11,6 +10,7 @@ from pathlib import Path
 
 import trimesh
 
+from . import manifest as manifest_file
 from .decompose import DecompParams, HullCache, cache_key, parallel_decompose
 from .meshes import mesh_from_stl, stl_bytes
 
@@ -35,14 +35,14 @@ class HullSource:
     def seed_from_outputs(self, directories: list[Path]) -> None:
         """Committed hulls act as a cache: a manifest maps each decomposition key to its asset files."""
         for directory in directories:
-            manifest_path = directory / "manifest.json"
-            try:
-                manifest = json.loads(manifest_path.read_text())
-            except (OSError, ValueError):
+            manifest = manifest_file.read(directory)
+            if manifest is None:
                 continue
             outputs = manifest.get("outputs", {})
             for key, files in (manifest.get("decompositions") or {}).items():
                 blobs = []
+                if not isinstance(files, list) or not all(isinstance(name, str) for name in files):
+                    continue
                 for name in files:
                     path = directory / "assets" / name
                     data = path.read_bytes() if path.is_file() else None

@@ -184,3 +184,14 @@ def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None
     assert result.returncode == 0, result.stderr
     assert complete(tmp_path / "again" / "mini") == reference
     assert (entry / meta["files"][0]["name"]).read_bytes() != garbage  # rebuilt into the cache
+
+
+@pytest.mark.parametrize("content", [b"[1, 2]", b'{"outputs": 5}', b"\xff\xfe\x00", b'{"decompositions": {"k": 7}}'])
+def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: bytes) -> None:
+    root, out = project(tmp_path, variants=1), tmp_path / "out"
+    assert build(root, out).returncode == 0
+    good = (out / "mini" / "manifest.json").read_bytes()
+    (out / "mini" / "manifest.json").write_bytes(content)
+    result = build(root, out)
+    assert result.returncode == 0 and "built" in result.stdout, result.stderr
+    assert (out / "mini" / "manifest.json").read_bytes() == good

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -10,6 +9,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
+from .. import manifest as manifest_file
 from ..config import Variant, load_config
 from ..errors import SvhdescError
 from ..paths import default_config, source_root
@@ -200,11 +200,8 @@ def configured_variant(model_name: str, mjcf_path: Path, config_path: Path | Non
 
 
 def _manifest_configs(directory: Path) -> list[Path]:
-    manifest = directory / "manifest.json"
-    try:
-        inputs = json.loads(manifest.read_text())["inputs"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return []
+    manifest = manifest_file.read(directory)
+    inputs = manifest.get("inputs", {}) if manifest else {}
     paths = []
     for uri in inputs:
         if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
