@@ -58,8 +58,8 @@ def load_spec(path: Path) -> CouplingSpec:
         lower, upper = numbers((2,))(item["range"], f"{where(item, at, 'range')}: channel {name}: range")
         if not lower < upper:
             raise SvhdescError(f"{where(item, at, 'range')}: channel {name}: empty range [{lower}, {upper}]")
-        effort = number(0.0, strict=True)(item["effort"], f"{where(item, at, 'effort')}: channel {name}: effort")
-        velocity = number(0.0, strict=True)(
+        effort = number(0.0, 1e4, strict=True)(item["effort"], f"{where(item, at, 'effort')}: channel {name}: effort")
+        velocity = number(0.0, 1e4, strict=True)(
             item["velocity"], f"{where(item, at, 'velocity')}: channel {name}: velocity"
         )
         channels.append(Channel(name, name, lower, upper, effort, velocity))

@@ -20,14 +20,18 @@ CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}
 INTERFACES = ("position", "effort")
 
 Check = Callable[[Any, str], Any]  # (raw value, "file:line: key") -> normalised value
+LARGEST = 1e6  # no setting of a robot model is larger in magnitude (metres, kg, N m/rad, ...)
 
 
 def _fail(at: str, message: str) -> SvhdescError:
     return SvhdescError(f"{at} {message}")
 
 
-def number(minimum: float | None = None, *, strict: bool = False) -> Check:
-    """A finite real number (not a bool), optionally >= or > ``minimum``."""
+def number(minimum: float | None = None, maximum: float | None = None, *, strict: bool = False) -> Check:
+    """A finite real number (not a bool), optionally >= or > ``minimum`` and <= ``maximum``.
+
+    The maxima are plausibility bounds: far beyond any robot, well inside what the simulators compute with.
+    """
 
     def check(value: Any, at: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -37,17 +41,21 @@ def number(minimum: float | None = None, *, strict: bool = False) -> Check:
             raise _fail(at, f"must be finite, got {value!r}")
         if minimum is not None and (result <= minimum if strict else result < minimum):
             raise _fail(at, f"must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+        if maximum is not None and result > maximum:
+            raise _fail(at, f"must be <= {maximum:g}, got {value!r}")
+        if maximum is None and abs(result) > LARGEST:
+            raise _fail(at, f"must be within +-{LARGEST:g}, got {value!r}")
         return result
 
     return check
 
 
-def integer(minimum: int = 0) -> Check:
+def integer(minimum: int = 0, maximum: int = 10**6) -> Check:
     def check(value: Any, at: str) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise _fail(at, f"must be an integer, got {value!r}")
-        if value < minimum:
-            raise _fail(at, f"must be >= {minimum}, got {value!r}")
+        if not minimum <= value <= maximum:
+            raise _fail(at, f"must be in [{minimum}, {maximum}], got {value!r}")
         return value
 
     return check
@@ -98,7 +106,17 @@ def numbers(lengths: tuple[int, ...] | None = None, item: Check | None = None) -
 
 def solref(value: Any, at: str) -> list[float]:
     """MuJoCo solref (timeconst, dampratio): both > 0."""
-    return numbers((2,), number(0.0, strict=True))(value, at)
+    return numbers((2,), number(0.0, 100.0, strict=True))(value, at)
+
+
+def solimp(value: Any, at: str) -> list[float]:
+    """MuJoCo solimp (dmin, dmax, width[, midpoint, power]): impedances in (0, 1), width > 0, power >= 1."""
+    result = numbers((3, 5))(value, at)
+    if not (0 < result[0] < 1 and 0 < result[1] < 1 and result[2] > 0):
+        raise _fail(at, f"must hold dmin, dmax in (0, 1) and width > 0, got {value!r}")
+    if len(result) == 5 and not (0 < result[3] < 1 and result[4] >= 1):
+        raise _fail(at, f"must hold midpoint in (0, 1) and power >= 1, got {value!r}")
+    return result
 
 
 def names(value: Any, at: str) -> list[str]:
@@ -171,8 +189,8 @@ class Hand:
     joint_damping: float = _field(0.0, number(0.0))
     joint_armature: float = _field(0.0, number(0.0))
     kp: float = _field(10.0, number(0.0))
-    dampratio: float = _field(1.0, number(0.0))
-    limit_margin: float = _field(0.0, number(0.0))
+    dampratio: float = _field(1.0, number(0.0, 100.0))
+    limit_margin: float = _field(0.0, number(0.0, 0.1))
     limit_solref: list[float] | None = _field(None, optional(solref))
 
 
@@ -181,10 +199,10 @@ class Arm:
     enabled: bool = _field(False, boolean)
     joints: list[str] = _field([], names)
     kp: float | list[float] = _field(1000.0, number_or_numbers(0.0))
-    dampratio: float = _field(1.0, number(0.0))
+    dampratio: float = _field(1.0, number(0.0, 100.0))
     joint_damping: float = _field(0.0, number(0.0))
     joint_armature: float = _field(0.0, number(0.0))
-    limit_margin: float = _field(0.0, number(0.0))
+    limit_margin: float = _field(0.0, number(0.0, 0.1))
     limit_solref: list[float] | None = _field(None, optional(solref))
 
 
@@ -199,12 +217,12 @@ def _inertial(value: Any, at: str) -> Node:
 @dataclass(frozen=True)
 class Budget:
     links: str = _field(None, text, required=True)
-    total: float = _field(None, number(0.0, strict=True), required=True)
+    total: float = _field(None, number(0.0, 1e4, strict=True), required=True)
 
 
 @dataclass(frozen=True)
 class ExplicitInertial:
-    mass: float = _field(None, number(0.0, strict=True), required=True)
+    mass: float = _field(None, number(0.0, 1e4, strict=True), required=True)
     com: list[float] = _field(None, numbers((3,)), required=True)
     inertia: list[float] = _field(None, numbers((6,)), required=True)
 
@@ -220,17 +238,17 @@ def _budgets(value: Any, at: str) -> list[Node]:
 @dataclass(frozen=True)
 class Mass:
     budgets: list[Any] = _field([], _budgets)
-    links: dict[str, float] = _field({}, mapping_of(number(0.0, strict=True)))
+    links: dict[str, float] = _field({}, mapping_of(number(0.0, 1e4, strict=True)))
     inertials: dict[str, Any] = _field({}, mapping_of(_inertial))
 
 
 @dataclass(frozen=True)
 class Contact:
     model: str = _field("soft_finger", choice(*CONTACT_MODELS))
-    sliding: float = _field(1.0, number(0.0))
-    torsional: float = _field(0.0, number(0.0))
-    rolling: float = _field(0.0, number(0.0))
-    default_sliding: float = _field(0.8, number(0.0))
+    sliding: float = _field(1.0, number(0.0, 10.0))
+    torsional: float = _field(0.0, number(0.0, 10.0))
+    rolling: float = _field(0.0, number(0.0, 10.0))
+    default_sliding: float = _field(0.8, number(0.0, 10.0))
 
 
 @dataclass(frozen=True)
@@ -240,17 +258,17 @@ class Transmissions:
 
 @dataclass(frozen=True)
 class Simulation:
-    timestep: float = _field(0.002, number(0.0, strict=True))
-    noslip_iterations: int = _field(0, integer(0))
+    timestep: float = _field(0.002, number(0.0, 0.1, strict=True))
+    noslip_iterations: int = _field(0, integer(0, 1000))
     coupling_solref: list[float] = _field([0.002, 1.0], solref)
-    coupling_solimp: list[float] = _field([0.99, 0.999, 0.0001, 0.5, 2.0], numbers((3, 5)))
+    coupling_solimp: list[float] = _field([0.99, 0.999, 0.0001, 0.5, 2.0], solimp)
     gravity_compensation: bool = _field(True, boolean)
 
 
 @dataclass(frozen=True)
 class Scene:
-    floor_z: float = _field(0.0, number())
-    pedestal_radius: float = _field(0.0, number(0.0))
+    floor_z: float = _field(0.0, number(-100.0, 100.0))
+    pedestal_radius: float = _field(0.0, number(0.0, 10.0))
 
 
 def _keyframe(value: Any, at: str) -> Node:

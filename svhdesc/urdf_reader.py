@@ -15,6 +15,8 @@ from .ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
 from .packages import resolve_uri
 from .stages.frames import rpy_matrix
 
+LARGEST = 1e9  # larger than any length, mass, limit or effort of a robot; small enough to compute with
+
 
 def _floats(text: str | None, n: int, default: tuple[float, ...], where: str) -> tuple[float, ...]:
     if text is None:
@@ -27,6 +29,8 @@ def _floats(text: str | None, n: int, default: tuple[float, ...], where: str) ->
         raise SvhdescError(f"{where}: expected {n} numbers, got {text!r}")
     if not all(math.isfinite(v) for v in values):
         raise SvhdescError(f"{where}: non-finite number in {text!r}")
+    if any(abs(v) > LARGEST for v in values):
+        raise SvhdescError(f"{where}: implausibly large number in {text!r} (beyond +-{LARGEST:g})")
     return values
 
 

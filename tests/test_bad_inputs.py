@@ -271,7 +271,64 @@ CONFIG_CASES: list[Case] = [
     ("collision_mode", config("collision: {mode: hull}", "collision: {mode: magic}"), "magic"),
 ]
 
-ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES]
+OBJ_NAN = "v nan 0 0\nv 0.01 0 0\nv 0 0.01 0\nv 0 0 0.01\nf 1 2 3\nf 1 3 4\nf 1 2 4\nf 2 3 4\n"
+ASCII_STL_NAN = (
+    "solid x\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n"
+)
+
+
+def obj_nan(project: Path) -> None:
+    (project / "cube.obj").write_text(OBJ_NAN)
+    edit(project / "mini.xacro", "cube.stl", "cube.obj")
+
+
+def mesh_is_directory(project: Path) -> None:
+    (project / "cube.stl").unlink()
+    (project / "cube.stl").mkdir()
+
+
+MORE_CASES: list[Case] = [
+    ("origin_huge", xacro('xyz="0 0 0.03"', 'xyz="1e308 0 0.03"'), "implausibly large"),
+    ("limit_huge", xacro('upper="1.0"', 'upper="1e308"'), "implausibly large"),
+    (
+        "self_include",
+        xacro('<xacro:macro name="finger"', '<xacro:include filename="finger.xacro"/><xacro:macro name="finger"'),
+        "finger.xacro",
+    ),
+    ("obj_nan", obj_nan, "cube.obj"),
+    ("ascii_stl_nan", write("cube.stl", ASCII_STL_NAN.encode()), "cube.stl"),
+    ("dae_bad_index", dae("<p>", "<p>99 "), "knuckle.dae"),
+    ("mesh_is_directory", mesh_is_directory, "cube.stl"),
+    ("poly_huge", spec("poly: [0.0, 0.5]", "poly: [0.0, 0.5, 1.0e+308]"), "poly must be within"),
+    ("effort_huge", spec("effort: 1.0", "effort: 1.0e+308"), "effort must be <="),
+    ("channel_name_number", spec("name: A", "name: 5"), "channel name"),
+    ("spec_empty", write("coupling.yaml", b""), "coupling.yaml"),
+    ("kp_huge", config("kp: 1.0", "kp: 1.0e+308"), "hand.kp must be within"),
+    ("timestep_huge", config("timestep: 0.001", "timestep: 1.0e+308"), "simulation.timestep must be <="),
+    ("budget_huge", config("total: 0.1", "total: 1.0e+308"), "total must be <="),
+    (
+        "solimp_out_of_range",
+        config("coupling_solref: [0.002, 1.0]", "coupling_solref: [0.002, 1.0]\n  coupling_solimp: [0.9, 1.5, 0.001]"),
+        "coupling_solimp",
+    ),
+    (
+        "variant_null",
+        config("  mini:\n    xacro: mini.xacro\n    args: {side: right}", "  mini: null"),
+        "variant mini needs",
+    ),
+    ("keyframe_scalar", config("home: {A: 0.1}", "home: 5"), "keyframes.home must be a mapping"),
+    ("budget_scalar", config('- {links: "{hand}_*", total: 0.1}', "- 5"), "mass.budgets[0]"),
+    (
+        "decompose_params_text",
+        config("collision: {mode: hull}", "collision: {mode: decompose, params: {threshold: a}}"),
+        "threshold",
+    ),
+    ("collision_classes_scalar", config("collision: {mode: hull}", "collision: {classes: 5}"), "collision.classes"),
+    ("extends_itself", config("coupling: coupling.yaml", "extends: mini.yaml\ncoupling: coupling.yaml"), "loops back"),
+    ("config_empty", write("mini.yaml", b""), "config must be a mapping"),
+]
+
+ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES]
 
 
 @pytest.mark.parametrize(("name", "mutate", "match"), ALL, ids=[case[0] for case in ALL])
