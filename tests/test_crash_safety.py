@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import random
 import shutil
 import signal
 import subprocess
@@ -195,3 +196,41 @@ def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: byt
     result = build(root, out)
     assert result.returncode == 0 and "built" in result.stdout, result.stderr
     assert (out / "mini" / "manifest.json").read_bytes() == good
+
+
+def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path) -> None:
+    root, out = project(tmp_path), tmp_path / "out"
+    assert build(root, out).returncode == 0
+    rng = random.Random(8)
+    kp = 1.0
+    for _ in range(6):
+        (root / "mini.yaml").write_text((root / "mini.yaml").read_text().replace(f"kp: {kp}", f"kp: {kp + 1}"))
+        kp += 1
+        process = start(root, out)
+        time.sleep(rng.uniform(0.2, 2.0))
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+        for name in ("mini", "mini_1"):  # whole, and from one of the builds so far
+            assert complete(out / name) in {f"{k:g}" for k in range(1, int(kp) + 1)}
+    result = build(root, out)
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]
+    assert {complete(out / "mini"), complete(out / "mini_1")} == {f"{kp:g}"}
+
+
+def test_a_full_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None:
+    params = "{mode: decompose, params: {threshold: 0.1, max_convex_hull: 2, resolution: 500}}"
+    root = project(tmp_path, variants=1, collision=params)
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4k", "tmpfs", str(cache)], capture_output=True).returncode:
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    try:
+        (cache / "filler").write_bytes(b"x" * 4096)  # the cache's filesystem is now full
+        result = build(root, tmp_path / "out", env={"SVHDESC_CACHE": str(cache)})
+    finally:
+        subprocess.run(["umount", "-l", str(cache)], check=False)
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1 and "building without caching" in warnings[0], result.stderr
+    complete(tmp_path / "out" / "mini")
