@@ -12,7 +12,7 @@ from .settings import CONTACT_MODELS, Settings, mapping_of, normalise, text
 from .yamlio import Node, load_yaml, where
 
 # Every section a config may hold: the fields of the one schema (svhdesc.settings).
-SECTIONS: tuple[str, ...] = tuple(f.name for f in fields(Settings))
+SECTIONS: tuple[str, ...] = tuple(f.name for f in fields(Settings) if not f.metadata.get("located"))
 VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
 __all__ = ["CONTACT_MODELS", "Config", "Variant", "load_config"]
 
@@ -25,6 +25,11 @@ class Variant:
     settings: dict[str, Any]  # merged defaults + overrides, checked, defaults filled (mappings, for the stages)
     config_dir: Path
     typed: Settings | None = field(default=None, compare=False)  # the same values, typed
+
+    @property
+    def sections(self) -> Settings:
+        """The typed settings (checked again from ``settings`` for a Variant built without them)."""
+        return self.typed if self.typed is not None else normalise(self.settings, str(self.config_dir))[0]
 
     @property
     def hand(self) -> dict[str, Any]:

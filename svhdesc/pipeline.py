@@ -63,6 +63,7 @@ def compile_variant(
     source: Source | None = None,
 ) -> Compiled:
     timings = timings or Timings()
+    sections = variant.sections  # typed, checked settings: each stage gets its own section
     source = source or read_source(variant, extra_packages, timings)
     spec_path = variant.path("coupling")
     prefix = variant.hand["prefix"]
@@ -77,14 +78,14 @@ def compile_variant(
     with timings.stage("inertials"):
         robot = add_inertials(robot, assets, variant.settings["mass"], prefix)
     with timings.stage("physics"):
-        robot = add_contact(robot, variant.settings["contact"], variant.hand)
-        robot = add_actuation(robot, variant.settings)
+        robot = add_contact(robot, sections.contact, sections.hand)
+        robot = add_actuation(robot, sections.hand, sections.arm, sections.transmissions)
         robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
-        check_hand_names(robot, variant.hand, _at(variant))
+        check_hand_names(robot, sections.hand)
         check_driven(robot)
         check_keyframes(robot, variant.settings["keyframes"], _at(variant))
         bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
-        robot = add_force_sensor(robot, variant.hand, bounds)
+        robot = add_force_sensor(robot, sections.hand, bounds)
     with timings.stage("exclusions"):
         robot = add_excludes(robot, lambda r: touching_at_rest(r, assets, variant.settings))
     return Compiled(robot, assets, [*source.inputs, spec_path])

@@ -182,7 +182,24 @@ def _sub(cls: type) -> Any:
 
 
 @dataclass(frozen=True)
-class Hand:
+class Located:
+    """Where a section was written: ``at(key)`` is the file:line of that key (else of the section)."""
+
+    where: str = field(default="", kw_only=True, compare=False, repr=False, metadata={"located": True})
+    lines: dict[str, str] = field(
+        default_factory=dict, kw_only=True, compare=False, repr=False, metadata={"located": True}
+    )
+
+    def at(self, key: str) -> str:
+        return self.lines.get(key, self.where)
+
+
+def _config_fields(cls: type) -> list[Any]:
+    return [f for f in fields(cls) if not f.metadata.get("located")]
+
+
+@dataclass(frozen=True)
+class Hand(Located):
     prefix: str = _field(None, text, required=True)
     fingertips: list[str] = _field([], names)
     force_sensor: str | None = _field(None, optional(text))
@@ -195,7 +212,7 @@ class Hand:
 
 
 @dataclass(frozen=True)
-class Arm:
+class Arm(Located):
     enabled: bool = _field(False, boolean)
     joints: list[str] = _field([], names)
     kp: float | list[float] = _field(1000.0, number_or_numbers(0.0))
@@ -215,13 +232,13 @@ def _inertial(value: Any, at: str) -> Node:
 
 
 @dataclass(frozen=True)
-class Budget:
+class Budget(Located):
     links: str = _field(None, text, required=True)
     total: float = _field(None, number(0.0, 1e4, strict=True), required=True)
 
 
 @dataclass(frozen=True)
-class ExplicitInertial:
+class ExplicitInertial(Located):
     mass: float = _field(None, number(0.0, 1e4, strict=True), required=True)
     com: list[float] = _field(None, numbers((3,)), required=True)
     inertia: list[float] = _field(None, numbers((6,)), required=True)
@@ -236,14 +253,14 @@ def _budgets(value: Any, at: str) -> list[Node]:
 
 
 @dataclass(frozen=True)
-class Mass:
+class Mass(Located):
     budgets: list[Any] = _field([], _budgets)
     links: dict[str, float] = _field({}, mapping_of(number(0.0, 1e4, strict=True)))
     inertials: dict[str, Any] = _field({}, mapping_of(_inertial))
 
 
 @dataclass(frozen=True)
-class Contact:
+class Contact(Located):
     model: str = _field("soft_finger", choice(*CONTACT_MODELS))
     sliding: float = _field(1.0, number(0.0, 10.0))
     torsional: float = _field(0.0, number(0.0, 10.0))
@@ -252,12 +269,12 @@ class Contact:
 
 
 @dataclass(frozen=True)
-class Transmissions:
+class Transmissions(Located):
     interface: str = _field("position", choice(*INTERFACES))
 
 
 @dataclass(frozen=True)
-class Simulation:
+class Simulation(Located):
     timestep: float = _field(0.002, number(0.0, 0.1, strict=True))
     noslip_iterations: int = _field(0, integer(0, 1000))
     coupling_solref: list[float] = _field([0.002, 1.0], solref)
@@ -266,7 +283,7 @@ class Simulation:
 
 
 @dataclass(frozen=True)
-class Scene:
+class Scene(Located):
     floor_z: float = _field(0.0, number(-100.0, 100.0))
     pedestal_radius: float = _field(0.0, number(0.0, 10.0))
 
@@ -276,7 +293,7 @@ def _keyframe(value: Any, at: str) -> Node:
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(Located):
     coupling: str = _field(None, text, required=True)
     coupled_limits: str = _field("error", choice("error", "widen"))
     packages: dict[str, str] = _field({}, mapping_of(text))
@@ -300,7 +317,7 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
     if not isinstance(value, dict):
         raise _fail(f"{base}:", f"'{key}' must be a mapping, got {value!r}")
     here = where(value, base)
-    known = {f.name for f in fields(cls)}
+    known = {f.name for f in _config_fields(cls)}
     unknown = [str(k) for k in value if k not in known]
     if unknown:
         inside = f" in '{key}'" if key else ""
@@ -308,7 +325,7 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
     typed: dict[str, Any] = {}
     plain = Node()
     plain.where = here
-    for spec in fields(cls):
+    for spec in _config_fields(cls):
         label = f"{key}.{spec.name}" if key else spec.name
         if spec.name in value:
             line = where(value, here, spec.name)
@@ -325,7 +342,7 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
         else:
             typed[spec.name] = result
             plain[spec.name] = result
-    return cls(**typed), plain
+    return cls(**typed, where=here, lines=dict(plain.lines)), plain
 
 
 def normalise(settings: dict[str, Any], at: str) -> tuple[Settings, Node]:

@@ -10,6 +10,7 @@ import numpy as np
 from ..coupling import propagate
 from ..errors import SvhdescError
 from ..ir import Actuator, ForceSensor, Keyframe, Robot, Transmission
+from ..settings import Arm, Hand, Transmissions
 from ..yamlio import where
 
 INTERFACES = {
@@ -18,77 +19,61 @@ INTERFACES = {
 }
 
 
-def _per_joint(value: Any, count: int, what: str) -> list[float]:
-    values = value if isinstance(value, list) else [value] * count
-    if len(values) != count:
-        raise SvhdescError(f"{what}: expected {count} values, got {len(values)}")
-    return [float(v) for v in values]
-
-
-def arm_joints(robot: Robot, arm: dict[str, Any]) -> list[str]:
-    if not arm.get("enabled"):
+def arm_joints(robot: Robot, arm: Arm) -> list[str]:
+    if not arm.enabled:
         return []
     names = {j.name for j in robot.joints}
-    missing = [j for j in arm["joints"] if j not in names]
+    missing = [j for j in arm.joints if j not in names]
     if missing:
-        raise SvhdescError(f"{where(arm, 'arm', 'joints')}: arm.joints: not in the robot: {missing}")
-    return list(arm["joints"])
+        raise SvhdescError(f"{arm.at('joints')}: arm.joints: not in the robot: {missing}")
+    return list(arm.joints)
 
 
-def add_actuation(robot: Robot, settings: dict[str, Any]) -> Robot:
+def add_actuation(robot: Robot, hand: Hand, arm: Arm, transmissions: Transmissions) -> Robot:
     """Channels and arm joints become position actuators with ros_control transmissions."""
-    hand, arm = settings["hand"], settings["arm"]
-    interface = INTERFACES.get(settings["transmissions"].get("interface", "position"))
-    if interface is None:
-        raise SvhdescError(f"transmissions.interface must be one of {sorted(INTERFACES)}")
+    interface = INTERFACES[transmissions.interface]
     joints = {j.name: j for j in robot.joints}
     channel_of = {c.joint: c for c in robot.channels}
     followers = {j.name: j.mimic.joint for j in robot.joints if j.mimic}
-    actuators = []
-    for channel in robot.channels:
-        actuators.append(
-            Actuator(
-                channel.joint,
-                channel.joint,
-                channel.lower,
-                channel.upper,
-                channel.effort,
-                float(hand["kp"]),
-                float(hand.get("dampratio", 1.0)),
-            )
-        )
+    actuators = [
+        Actuator(c.joint, c.joint, c.lower, c.upper, c.effort, hand.kp, hand.dampratio) for c in robot.channels
+    ]
     names = arm_joints(robot, arm)
-    kps = _per_joint(arm.get("kp", 1000.0), len(names), f"{where(arm, 'arm', 'kp')}: arm.kp") if names else []
+    kps = arm.kp if isinstance(arm.kp, list) else [arm.kp] * len(names)
+    if names and len(kps) != len(names):
+        raise SvhdescError(f"{arm.at('kp')}: arm.kp: expected {len(names)} values (one per arm joint), got {len(kps)}")
     for name, kp in zip(names, kps):
         j = joints[name]
-        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, float(arm.get("dampratio", 1.0))))
+        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, arm.dampratio))
     # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's.
     updated = []
     for joint in robot.joints:
         if joint.name in channel_of or joint.name in followers:
             channel = channel_of[followers.get(joint.name, joint.name)]
-            solref = hand.get("limit_solref")
             joint = replace(
                 joint,
                 effort=channel.effort,
                 velocity=channel.velocity,
-                damping=float(hand.get("joint_damping", 0.0)),
-                armature=float(hand.get("joint_armature", 0.0)),
-                limit_margin=float(hand.get("limit_margin", 0.0)),
-                limit_solref=(float(solref[0]), float(solref[1])) if solref else None,
+                damping=hand.joint_damping,
+                armature=hand.joint_armature,
+                limit_margin=hand.limit_margin,
+                limit_solref=_solref(hand.limit_solref),
             )
         elif joint.name in names:
-            solref = arm.get("limit_solref")
             joint = replace(
                 joint,
-                damping=float(arm.get("joint_damping", 0.0)),
-                armature=float(arm.get("joint_armature", 0.0)),
-                limit_margin=float(arm.get("limit_margin", 0.0)),
-                limit_solref=(float(solref[0]), float(solref[1])) if solref else None,
+                damping=arm.joint_damping,
+                armature=arm.joint_armature,
+                limit_margin=arm.limit_margin,
+                limit_solref=_solref(arm.limit_solref),
             )
         updated.append(joint)
-    transmissions = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
-    return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions)
+    transmissions_ = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
+    return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions_)
+
+
+def _solref(values: list[float] | None) -> tuple[float, float] | None:
+    return (values[0], values[1]) if values else None
 
 
 def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, optional: set[str]) -> Robot:
@@ -113,14 +98,13 @@ def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, opt
     return replace(robot, keyframes=tuple(frames))
 
 
-def add_force_sensor(robot: Robot, hand: dict[str, Any], solid_bounds: dict[str, np.ndarray]) -> Robot:
+def add_force_sensor(robot: Robot, hand: Hand, solid_bounds: dict[str, np.ndarray]) -> Robot:
     """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
-    tip = hand.get("force_sensor")
-    if not tip:
+    if not hand.force_sensor:
         return robot
-    link = f"{hand['prefix']}_{tip}"
+    link = f"{hand.prefix}_{hand.force_sensor}"
     if link not in solid_bounds:
-        raise SvhdescError(f"force sensor link {link} has no geometry")
+        raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: link {link} has no geometry")
     low, high = solid_bounds[link]
     centre = tuple(float(v) for v in (low + high) / 2.0)
     size = float(np.max(high - low)) / 2.0 + 0.002

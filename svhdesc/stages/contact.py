@@ -3,30 +3,28 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
-from ..config import CONTACT_MODELS
+from .. import settings
 from ..ir import Contact, Robot
+from ..settings import CONTACT_MODELS, Hand
 
 
-def fingertip_links(robot: Robot, hand: dict[str, Any]) -> list[str]:
+def fingertip_links(robot: Robot, hand: Hand) -> list[str]:
     names = {link.name for link in robot.links}
-    return [f"{hand['prefix']}_{tip}" for tip in hand.get("fingertips", []) if f"{hand['prefix']}_{tip}" in names]
+    return [f"{hand.prefix}_{tip}" for tip in hand.fingertips if f"{hand.prefix}_{tip}" in names]
 
 
-def add_contact(robot: Robot, contact: dict[str, Any], hand: dict[str, Any]) -> Robot:
+def add_contact(robot: Robot, contact: settings.Contact, hand: Hand) -> Robot:
     """Fingertips get the selected grasp contact model; every other link hard-finger friction."""
-    model = contact.get("model", "soft_finger")
-    condim = CONTACT_MODELS[model]
+    condim = CONTACT_MODELS[contact.model]
     tips = set(fingertip_links(robot, hand))
-    sliding = 0.0 if model == "point" else float(contact.get("sliding", 1.0))
     tip = Contact(
-        mu=sliding,
-        torsional=float(contact.get("torsional", 0.0)) if condim >= 4 else 0.0,
-        rolling=float(contact.get("rolling", 0.0)) if condim >= 6 else 0.0,
+        mu=0.0 if contact.model == "point" else contact.sliding,
+        torsional=contact.torsional if condim >= 4 else 0.0,
+        rolling=contact.rolling if condim >= 6 else 0.0,
         condim=condim,
     )
-    other = Contact(mu=float(contact.get("default_sliding", 0.8)), condim=3)
+    other = Contact(mu=contact.default_sliding, condim=3)
     links = [
         replace(link, contact=tip if link.name in tips else other) if link.collisions else link for link in robot.links
     ]

@@ -7,19 +7,20 @@ from typing import Any
 
 from ..errors import SvhdescError
 from ..ir import Robot
+from ..settings import Hand
 from ..yamlio import where
 
 LIMIT_TOL = 1e-9
 
 
-def check_hand_names(robot: Robot, hand: dict[str, Any], at: str) -> None:
+def check_hand_names(robot: Robot, hand: Hand) -> None:
     links = {link.name for link in robot.links}
-    for tip in hand.get("fingertips") or []:
-        if f"{hand['prefix']}_{tip}" not in links:
-            raise SvhdescError(f"{where(hand, at, 'fingertips')}: hand.fingertips: no link {hand['prefix']}_{tip}")
-    tip = hand.get("force_sensor")
-    if tip and f"{hand['prefix']}_{tip}" not in links:
-        raise SvhdescError(f"{where(hand, at, 'force_sensor')}: hand.force_sensor: no link {hand['prefix']}_{tip}")
+    for tip in hand.fingertips:
+        if f"{hand.prefix}_{tip}" not in links:
+            raise SvhdescError(f"{hand.at('fingertips')}: hand.fingertips: no link {hand.prefix}_{tip}")
+    tip = hand.force_sensor
+    if tip and f"{hand.prefix}_{tip}" not in links:
+        raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: no link {hand.prefix}_{tip}")
 
 
 def check_driven(robot: Robot) -> None:
