@@ -8,13 +8,13 @@ from pathlib import Path
 
 from . import manifest as manifest_file
 from .config import Config, Variant
+from .decompose.source import HullSource
 from .errors import SvhdescError
 from .export.mjcf import export_mjcf, export_scene
 from .export.package import export_package_xml, mesh_uri_prefix
 from .export.urdf import export_urdf
 from .finite import check_finite
 from .freshness import portable, sha256, svhdesc_version, tool_versions
-from .hull_source import HullSource
 from .outdir import output_directory, publish
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .timings import Timings

@@ -31,7 +31,8 @@ STAGING_PREFIX = ".svhdesc-build-"
 RETIRED_PREFIX = ".old-"
 AT_FDCWD = -100
 RENAME_EXCHANGE = 2
-# Test hook: seconds to pause after the first variant has been swapped in (to kill a build there).
+# Test hook: after the first variant has been swapped in, pause until this file exists (60 s at most),
+# so that a test can kill the build there, or hold its lock.
 PAUSE_ENV = "SVHDESC_TEST_PAUSE_IN_SWAP"
 
 
@@ -138,4 +139,6 @@ def publish(staging: Path, out: Path, names: list[str]) -> None:
         swap_in(staging / name, out / name)
         if index == 0 and os.environ.get(PAUSE_ENV):
             print(f"swapped {name}; pausing", file=sys.stderr, flush=True)
-            time.sleep(float(os.environ[PAUSE_ENV]))
+            release, deadline = Path(os.environ[PAUSE_ENV]), time.monotonic() + 60
+            while not release.exists() and time.monotonic() < deadline:
+                time.sleep(0.05)

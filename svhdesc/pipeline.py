@@ -10,7 +10,7 @@ from lxml import etree
 
 from .config import Variant
 from .coupling import apply_spec, load_spec
-from .hull_source import HullSource
+from .decompose.source import HullSource
 from .ir import Robot
 from .packages import resolve_uri
 from .rest_contacts import touching_at_rest

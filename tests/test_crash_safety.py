@@ -74,7 +74,7 @@ def test_sigkill_inside_the_swap_leaves_whole_variants_and_the_next_build_cleans
     assert build(root, out).returncode == 0
     assert {complete(out / "mini"), complete(out / "mini_1")} == {"1"}
     (root / "mini.yaml").write_text((root / "mini.yaml").read_text().replace("kp: 1.0", "kp: 2.0"))
-    process = start(root, out, env={PAUSE_ENV: "60"})
+    process = start(root, out, env={PAUSE_ENV: str(tmp_path / "never")})
     wait_for(process, "pausing")  # the first variant is swapped in, the second is not
     process.send_signal(signal.SIGKILL)
     process.wait()
@@ -101,12 +101,14 @@ def test_recover_puts_back_a_variant_moved_aside_by_the_rename_fallback(tmp_path
 
 def test_concurrent_builds_into_one_out_serialise(tmp_path: Path) -> None:
     root, out = project(tmp_path), tmp_path / "out"
-    first = start(root, out, env={PAUSE_ENV: "2"})
+    release = tmp_path / "release"
+    first = start(root, out, env={PAUSE_ENV: str(release)})
     wait_for(first, "pausing")  # holds the lock
-    second = build(root, out, "--force")
+    second = start(root, out, "--force")
+    wait_for(second, "waiting for another build")
+    release.touch()
     assert first.wait(timeout=300) == 0
-    assert second.returncode == 0, second.stderr
-    assert "waiting for another build" in second.stderr
+    assert second.wait(timeout=300) == 0
     assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]
     assert {complete(out / "mini"), complete(out / "mini_1")} == {"1"}
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -199,7 +200,7 @@ def test_key_ignores_vertex_indexing(l_shape: trimesh.Trimesh) -> None:
 
 def test_key_depends_on_coacd_version(l_shape: trimesh.Trimesh, monkeypatch: pytest.MonkeyPatch) -> None:
     before = dec.cache_key(l_shape, FAST)
-    monkeypatch.setattr(dec, "_coacd_version", lambda: "99.0")
+    monkeypatch.setattr(dec.keys, "_coacd_version", lambda: "99.0")
     assert dec.cache_key(l_shape, FAST) != before
 
 
@@ -207,18 +208,17 @@ def test_key_depends_on_coacd_version(l_shape: trimesh.Trimesh, monkeypatch: pyt
 
 
 def test_cache_hit_runs_no_decomposition(tmp_path: Path, l_shape: trimesh.Trimesh) -> None:
-    cache = HullCache(tmp_path)
-    calls = dec.decompose_calls
-    first, hit = cached_decompose(l_shape, FAST, cache)
-    assert not hit and dec.decompose_calls == calls + 1
-    second, hit = cached_decompose(l_shape, FAST, cache)
-    assert hit and dec.decompose_calls == calls + 1
+    cache, runs = HullCache(tmp_path), Counter()
+    first, hit = cached_decompose(l_shape, FAST, cache, stats=runs)
+    assert not hit and runs["decomposed"] == 1
+    second, hit = cached_decompose(l_shape, FAST, cache, stats=runs)
+    assert hit and runs["decomposed"] == 1
     assert _blobs(first) == _blobs(second)
     entry = json.loads((_entry(cache, l_shape, FAST) / "entry.json").read_text())
     assert entry["count"] == len(first)
     # force recomputes (and rewrites) even on a valid entry
-    third, hit = cached_decompose(l_shape, FAST, cache, force=True)
-    assert not hit and dec.decompose_calls == calls + 2 and _blobs(third) == _blobs(first)
+    third, hit = cached_decompose(l_shape, FAST, cache, force=True, stats=runs)
+    assert not hit and runs["decomposed"] == 2 and _blobs(third) == _blobs(first)
     assert cached_decompose(l_shape, FAST, cache)[1]
 
 
@@ -226,9 +226,9 @@ def test_parameter_change_misses(tmp_path: Path, l_shape: trimesh.Trimesh) -> No
     cache = HullCache(tmp_path)
     other = DecompParams.from_mapping({**_fast(), "threshold": 0.2})
     assert cached_decompose(l_shape, FAST, cache)[1] is False
-    calls = dec.decompose_calls
-    assert cached_decompose(l_shape, other, cache)[1] is False
-    assert dec.decompose_calls == calls + 1
+    runs = Counter()
+    assert cached_decompose(l_shape, other, cache, stats=runs)[1] is False
+    assert runs["decomposed"] == 1
     assert len([p for p in tmp_path.iterdir() if not p.name.startswith(".")]) == 2
     assert cached_decompose(l_shape, other, cache)[1] is True
 
@@ -273,9 +273,9 @@ def test_damaged_entry_is_rebuilt(tmp_path: Path, l_shape: trimesh.Trimesh, dama
     damage(entry)
     assert cache.get(cache.key(l_shape, FAST)) is None
     assert not entry.exists()  # deleted, not left to fail again
-    calls = dec.decompose_calls
-    rebuilt, hit = cached_decompose(l_shape, FAST, cache)
-    assert not hit and dec.decompose_calls == calls + 1
+    runs = Counter()
+    rebuilt, hit = cached_decompose(l_shape, FAST, cache, stats=runs)
+    assert not hit and runs["decomposed"] == 1
     assert _blobs(rebuilt) == _blobs(good)
     assert cached_decompose(l_shape, FAST, cache)[1]
 
@@ -309,10 +309,10 @@ def test_parallel_equals_serial(tmp_path: Path, l_shape: trimesh.Trimesh, annulu
     serial = {name: _blobs(decompose(mesh, p)) for name, mesh, p in jobs}
 
     cache = HullCache(tmp_path)
-    calls = dec.decompose_calls
-    par = parallel_decompose(jobs, cache, n_jobs=2)
+    runs = Counter()
+    par = parallel_decompose(jobs, cache, n_jobs=2, stats=runs)
     assert list(par) == [name for name, _, _ in jobs]
-    assert dec.decompose_calls == calls + 3
+    assert runs["decomposed"] == 3
     assert {n: _blobs(h) for n, (h, _) in par.items()} == serial
     assert not any(hit for _, hit in par.values())
 
@@ -331,9 +331,9 @@ def test_parallel_hits_spawn_nothing(
         raise AssertionError("a process pool was started for cache hits")
 
     monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", no_pool)
-    calls = dec.decompose_calls
-    again = parallel_decompose(jobs, cache, n_jobs=2, progress=True)
-    assert dec.decompose_calls == calls
+    runs = Counter()
+    again = parallel_decompose(jobs, cache, n_jobs=2, progress=True, stats=runs)
+    assert runs["decomposed"] == 0
     assert all(hit for _, hit in again.values())
     assert {n: _blobs(h) for n, (h, _) in again.items()} == {n: _blobs(h) for n, (h, _) in first.items()}
 

@@ -10,8 +10,8 @@ import numpy as np
 import trimesh
 
 from ..decompose import DecompParams, bounded_hull
+from ..decompose.source import HullSource
 from ..errors import SvhdescError
-from ..hull_source import HullSource
 from ..ir import Geometry, Robot
 from ..meshes import MeshError, convex_hull, load_mesh, principal_cylinder, stl_bytes
 from .assets import Assets
