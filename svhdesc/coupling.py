@@ -10,11 +10,15 @@ import numpy as np
 
 from .errors import SvhdescError
 from .ir import Channel, Coupling, Mimic, Robot
+from .polynomial import image, linearise, polyval
 from .settings import number, numbers, text
 from .yamlio import load_yaml, where
 
 MAX_ORDER = 4
 LIMIT_TOL = 1e-9
+
+
+__all__ = ["CouplingSpec", "CouplingWarning", "apply_spec", "image", "linearise", "load_spec", "polyval", "propagate"]
 
 
 class CouplingWarning(UserWarning):
@@ -109,31 +113,6 @@ def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str,
             f"{lines[coupling.joint]}: coupled joint {coupling.joint} is in {kind} of couplings ({path}); "
             "every coupled joint must follow a channel directly"
         )
-
-
-def polyval(coeffs: tuple[float, ...], q: np.ndarray | float) -> np.ndarray | float:
-    return sum(c * np.power(q, i) for i, c in enumerate(coeffs))
-
-
-def image(coeffs: tuple[float, ...], lower: float, upper: float) -> tuple[float, float]:
-    """Exact range of the polynomial over [lower, upper] (endpoints and interior extrema)."""
-    points = [lower, upper]
-    derivative = np.polynomial.polynomial.polyder(coeffs) if len(coeffs) > 1 else []
-    if len(derivative) > 1:
-        for root in np.polynomial.polynomial.polyroots(derivative):
-            if abs(root.imag) < 1e-12 and lower < root.real < upper:
-                points.append(float(root.real))
-    values = [float(polyval(coeffs, p)) for p in points]
-    return min(values), max(values)
-
-
-def linearise(coeffs: tuple[float, ...], lower: float, upper: float) -> tuple[float, float]:
-    """(offset, multiplier) of the least-squares line through the polynomial over the channel range."""
-    if len(coeffs) <= 2:
-        return coeffs[0], coeffs[1] if len(coeffs) > 1 else 0.0
-    q = np.linspace(lower, upper, 201)
-    multiplier, offset = np.polyfit(q, polyval(coeffs, q), 1)
-    return float(offset), float(multiplier)
 
 
 def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str, *, widen_limits: bool = False) -> Robot:

@@ -11,9 +11,9 @@ import numpy as np
 from lxml import etree
 
 from .errors import SvhdescError
+from .frames import rpy_matrix
 from .ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
 from .packages import resolve_uri
-from .stages.frames import rpy_matrix
 
 LARGEST = 1e9  # larger than any length, mass, limit or effort of a robot; small enough to compute with
 

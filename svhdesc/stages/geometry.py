@@ -12,11 +12,11 @@ import trimesh
 from ..decompose import DecompParams, bounded_hull
 from ..decompose.source import HullSource
 from ..errors import SvhdescError
+from ..frames import matrix_pose, pose_matrix
 from ..ir import Geometry, Robot
 from ..meshes import MeshError, convex_hull, load_mesh, principal_cylinder, stl_bytes
 from .assets import Assets
 from .collision_rules import CollisionRule
-from .frames import matrix_pose, pose_matrix
 
 Scale = tuple[float, float, float]
 

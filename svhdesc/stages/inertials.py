@@ -10,10 +10,10 @@ import numpy as np
 import trimesh
 
 from ..errors import SvhdescError
+from ..frames import pose_matrix
 from ..ir import Geometry, Inertial, Link, Robot
 from ..meshes import principal_cylinder
 from .assets import Assets
-from .frames import pose_matrix
 
 
 def _shape(geometry: Geometry, assets: Assets) -> trimesh.Trimesh:

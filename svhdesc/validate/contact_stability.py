@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..coupling import polyval
+from ..polynomial import polyval
 from .options import Options
 from .pair import ModelPair, joint_equalities, scalar_joints
 from .report import Check, fmt, not_run, table, verdict

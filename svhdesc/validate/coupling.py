@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..coupling import image, linearise
+from ..polynomial import image, linearise
 from .options import Options
 from .pair import ModelPair, actuated_joints, joint_equalities
 from .report import Check, fmt, not_run, verdict

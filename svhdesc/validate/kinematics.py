@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from ..coupling import polyval
+from ..polynomial import polyval
 from .options import Options
 from .pair import ModelPair, actuated_joints, joint_equalities, scalar_joints
 from .report import Check, fmt, not_run, verdict
