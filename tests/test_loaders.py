@@ -150,7 +150,7 @@ def test_pinocchio_parses_mimic_from_the_plain_urdf() -> None:
 # --- pybullet --------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("variant", ["svh_right", "ur5_svh_right"])
+@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
 def test_pybullet(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
     p = pytest.importorskip("pybullet")
     robot = svhdesc.load_pybullet(variant)
@@ -202,7 +202,7 @@ def test_pybullet(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
 # --- Drake -----------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("variant", ["svh_right", "ur5_svh_right"])
+@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
 def test_drake_loads_with_couplers(variant: str) -> None:
     pytest.importorskip("pydrake")
     robot = svhdesc.load_drake(variant)
@@ -245,7 +245,7 @@ def test_drake_couplings_hold_while_driven() -> None:
 # --- DART ------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("variant", ["svh_right", "ur5_svh_right"])
+@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
 def test_dart(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
     dart = pytest.importorskip("dartpy")
     skeleton = svhdesc.load_dart(variant)
