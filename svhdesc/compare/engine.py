@@ -1,0 +1,98 @@
+"""The small interface every engine adapter implements, and the servo gains they share.
+
+An adapter loads the generated model (MJCF for MuJoCo, URDF for the others), adds the fixed surface of
+``experiment.Setup``, applies the inertia setting to the finger links, and then only steps: servo
+targets in, joint positions / fingertip force / fingertip position out.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .experiment import Setup
+
+TIMESTEP = 0.001  # s, the thesis' and the generated MJCF's step; every engine is asked for it
+
+
+class EngineMissing(Exception):
+    """The engine's Python package is not installed; the message says how to install it."""
+
+
+@dataclass(frozen=True)
+class Servo:
+    """Position servo per actuated joint (``Setup.actuated`` order): tau = kp (q* - q) - kv qdot, |tau| <= limit.
+
+    kp and the force limit are the model's; kv is what MuJoCo's ``dampratio="1"`` gives for the same
+    inertia setting, so every engine that takes physical gains gets the same ones."""
+
+    kp: np.ndarray
+    kv: np.ndarray
+    limit: np.ndarray
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    variant: str
+    setup: Setup
+    inertia: float | None  # diagonal inertia of every finger link [kg m^2]; None: the physical inertials
+    finger_links: frozenset[str]
+    servo: Servo
+    timestep: float = TIMESTEP
+
+
+class Engine(ABC):
+    """One physics engine running the experiment. Construct, ``load``, then ``step`` repeatedly."""
+
+    name: str = ""
+    module: str = ""  # what must be importable
+    install: str = ""  # how to get it
+
+    @classmethod
+    def available(cls) -> bool:
+        return importlib.util.find_spec(cls.module) is not None
+
+    @classmethod
+    def require(cls) -> None:
+        try:
+            ok = cls.available()
+        except (ImportError, ValueError):
+            ok = False
+        if not ok:
+            raise EngineMissing(f"not installed ({cls.install})")
+
+    @abstractmethod
+    def load(self, config: RunConfig) -> None:
+        """Build the world: model, surface, inertia, servos; the robot at its ``home`` keyframe."""
+
+    @abstractmethod
+    def step(self, targets: np.ndarray) -> None:
+        """Advance one timestep with these servo targets (``Setup.actuated`` order)."""
+
+    @abstractmethod
+    def joint_positions(self) -> np.ndarray:
+        """Positions of ``Setup.joints`` [rad]."""
+
+    @abstractmethod
+    def fingertip_force(self) -> float:
+        """Normal force the surface exerts on the fingertip [N] (0 without contact)."""
+
+    @abstractmethod
+    def fingertip_position(self) -> np.ndarray:
+        """World position of the fingertip link frame [m]."""
+
+    @abstractmethod
+    def settings(self) -> dict[str, Any]:
+        """Solver and contact settings in force, to print beside the results."""
+
+    @property
+    @abstractmethod
+    def timestep(self) -> float:
+        """The step the engine actually takes [s]."""
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        """Free engine resources (a pybullet client, for example)."""
