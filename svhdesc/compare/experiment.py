@@ -59,21 +59,21 @@ def moving_mean(series: np.ndarray, window: int) -> np.ndarray:
     return (cumulative[index] - cumulative[start]) / (index - start)
 
 
-def ramp(start: np.ndarray, goal: np.ndarray, step: int, dt: float) -> np.ndarray:
-    """Servo targets at step ``step`` (the step about to be taken): linear home -> test over RAMP s, then held."""
-    return start + (goal - start) * min(1.0, step * dt / RAMP)
+def ramp(start: np.ndarray, goal: np.ndarray, step: int, dt: float, duration: float = RAMP) -> np.ndarray:
+    """Servo targets at step ``step`` (the step about to be taken): linear home -> test over ``duration`` s,
+    then held."""
+    return start + (goal - start) * min(1.0, step * dt / duration)
 
 
-def schedule(dt: float, duration: float | None = None) -> tuple[int, int]:
-    """(total steps, first recorded step) for a run of RAMP + SETTLE + RECORD s, or ``duration`` s.
+def schedule(dt: float, duration: float | None = None) -> tuple[int, int, float]:
+    """(total steps, first recorded step, ramp time) for RAMP + SETTLE + RECORD s, or ``duration`` s.
 
-    A shorter duration shrinks the settling and recording time in proportion (the ramp stays whole when
-    it fits), so a quick run still records after the ramp."""
+    A shorter (or longer) duration scales all three phases alike, so a quick run still ramps, settles
+    and records in the same proportions."""
     full = RAMP + SETTLE + RECORD
-    duration = full if duration is None else duration
-    total = int(round(duration / dt))
-    record = RECORD * duration / full
-    return total, total - int(round(record / dt))
+    scale = 1.0 if duration is None else duration / full
+    total = int(round(full * scale / dt))
+    return total, total - int(round(RECORD * scale / dt)), RAMP * scale
 
 
 @dataclass(frozen=True)

@@ -79,10 +79,7 @@ class MujocoEngine(Engine):
         self.tip_geoms = {int(g) for g in range(model.ngeom) if model.geom_bodyid[g] == self.tip}
         self.addresses = np.array([model.joint(name).qposadr[0] for name in setup.joints])
         self.actuator_order = np.array(
-            [
-                setup.actuated.index(model.joint(int(model.actuator_trnid[i, 0])).name)
-                for i in range(model.nu)
-            ]
+            [setup.actuated.index(model.joint(int(model.actuator_trnid[i, 0])).name) for i in range(model.nu)]
         )
         home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
         mujoco.mj_resetDataKeyframe(model, self.data, home)

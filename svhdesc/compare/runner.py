@@ -99,13 +99,11 @@ def run_one(name: str, config: RunConfig, duration: float | None) -> Result:
     """Run one engine; a missing engine, a failed load or an explosion is a result, not an exception."""
     setup = config.setup
     result = Result(name, config.inertia, STATUS_OK, joints=list(setup.joints), actuated=list(setup.actuated))
+    cls = engine_class(name)
     try:
-        cls = engine_class(name)
         cls.require()
-    except (EngineMissing, ImportError) as exc:
-        result.status, result.note = STATUS_MISSING, str(exc) if isinstance(exc, EngineMissing) else f"{exc}"
-        if not isinstance(exc, EngineMissing):
-            result.note = f"not installed ({exc})"
+    except EngineMissing as exc:
+        result.status, result.note = STATUS_MISSING, str(exc)
         return result
     engine = cls()
     try:
@@ -132,7 +130,7 @@ def _exploded(q: np.ndarray, tip: np.ndarray, reference: np.ndarray) -> str | No
 def _simulate(engine: Engine, config: RunConfig, duration: float | None, result: Result) -> None:
     setup = config.setup
     dt = engine.timestep
-    total, record_from = experiment.schedule(dt, duration)
+    total, record_from, ramp_s = experiment.schedule(dt, duration)
     every = max(1, int(round(SAMPLE_DT / dt)))
     samples = total // every
     qpos = np.zeros((samples, len(setup.joints)))
@@ -140,7 +138,7 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
     count = 0
     started = time.perf_counter()
     for step in range(total):
-        engine.step(experiment.ramp(setup.home_ctrl, setup.test_ctrl, step, dt))
+        engine.step(experiment.ramp(setup.home_ctrl, setup.test_ctrl, step, dt, ramp_s))
         if (step + 1) % every:
             continue
         q, tip = engine.joint_positions(), engine.fingertip_position()

@@ -67,7 +67,7 @@ def run_experiment(pair: ModelPair) -> Experiment:
     mujoco.mj_resetDataKeyframe(scene, sdata, home)
     start, goal = scene.key_ctrl[home].copy(), scene.key_ctrl[test].copy()
     dt = scene.opt.timestep
-    total, record_from = shared.schedule(dt)
+    total, record_from, _ = shared.schedule(dt)
     joints = scalar_joints(scene)
     addresses = scene.jnt_qposadr[joints]
     touch_adr = next(
