@@ -52,9 +52,7 @@ class BulletEngine(Engine):
         if config.inertia is not None:
             for link, index in self.robot.links.items():
                 if link in config.finger_links:
-                    p.changeDynamics(
-                        body, index, localInertiaDiagonal=[config.inertia] * 3, physicsClientId=client
-                    )
+                    p.changeDynamics(body, index, localInertiaDiagonal=[config.inertia] * 3, physicsClientId=client)
         self.indices = [self.robot.joints[name] for name in setup.joints]
         for index, q in zip(self.indices, setup.home_qpos, strict=True):
             p.resetJointState(body, index, float(q), 0.0, physicsClientId=client)
@@ -86,7 +84,9 @@ class BulletEngine(Engine):
         return float(sum(c[9] for c in contacts))
 
     def fingertip_position(self) -> np.ndarray:
-        state = self.p.getLinkState(self.robot.body, self.tip, computeForwardKinematics=True, physicsClientId=self.client)
+        state = self.p.getLinkState(
+            self.robot.body, self.tip, computeForwardKinematics=True, physicsClientId=self.client
+        )
         return np.array(state[4])
 
     @property

@@ -121,13 +121,20 @@ class DrakeEngine(Engine):
                 "DiscreteContactApproximation.k", ""
             ),
             "contact_model": str(plant.get_contact_model()).replace("ContactModel.k", ""),
-            "penetration_allowance": plant.get_penetration_allowance(),
-            "stiction_tolerance": plant.stiction_tolerance(),
+            "stiction_tolerance": _query(plant, "stiction_tolerance"),
             "couplings": "SAP coupler constraints (svhdesc.loaders)",
             "servo": "PD-controlled actuators (implicit in SAP, kp, kv from the model, effort limits)",
             "friction": "2ab/(a+b) of the two geometries (surface the experiment's)",
             "armature": "none (URDF)",
         }
+
+
+def _query(plant: Any, method: str) -> Any:
+    """A plant setting, or '?' where this Drake version lacks the query."""
+    try:
+        return getattr(plant, method)()
+    except (AttributeError, RuntimeError):
+        return "?"
 
 
 def _gains(config: RunConfig) -> tuple[np.ndarray, np.ndarray]:

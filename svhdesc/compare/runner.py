@@ -54,6 +54,7 @@ class Result:
     contact_share: float = math.nan
     coupling_residual: float = math.nan  # worst over the run [rad]
     worst_coupling: str = ""
+    coupling_residual_free: float = math.nan  # worst before the fingertip first touches the surface [rad]
     tip_error: float = math.nan  # m, mean fingertip position while recording vs the test keyframe
     reached: bool = False
     realtime_factor: float = math.nan
@@ -82,6 +83,7 @@ class Result:
             "contact_share": _finite(self.contact_share),
             "coupling_residual_rad": _finite(self.coupling_residual),
             "worst_coupling": self.worst_coupling,
+            "coupling_residual_before_contact_rad": _finite(self.coupling_residual_free),
             "tip_error_m": _finite(self.tip_error),
             "test_pose_reached": self.reached,
             "realtime_factor": _finite(self.realtime_factor),
@@ -162,8 +164,13 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
             worst = np.unravel_index(int(np.argmax(residual)), residual.shape)
             result.coupling_residual = float(residual[worst])
             result.worst_coupling = setup.couplings[worst[1]].joint
+            # Free motion (home -> test before the first touch) shows whether the engine keeps the
+            # coupling at all; under the pressing load a soft constraint may also give way.
+            touching = np.flatnonzero(result.force > 0)
+            free = residual[: touching[0]] if len(touching) else residual
+            result.coupling_residual_free = float(free.max()) if len(free) else math.nan
         else:
-            result.coupling_residual = 0.0
+            result.coupling_residual = result.coupling_residual_free = 0.0
     if result.status != STATUS_OK:
         return
     recorded = result.qpos[result.record_from :]
