@@ -1,11 +1,11 @@
-"""DART (dartpy, Gazebo Sim's default engine): the URDF through ``svhdesc.loaders.load_dart`` (mimic joints as
-coupler constraints), plus the surface as a welded one-body skeleton.
+"""DART (dartpy, Gazebo Sim's default engine): the URDF through ``svhdesc.loaders.load_dart`` (mimic joints
+as DART's MIMIC actuators), plus the surface as a welded one-body skeleton.
 
 Servos: DART's joint spring and damper, which it integrates implicitly, used as a PD servo: stiffness
 kp, rest position = target, damping = the URDF's joint damping + kv (the gains of ``engine.Servo``).
-DART bounds no spring force, so the effort limit is not applied. Joint limits are switched on (DART's
-URDF loader leaves them off). DART takes the smaller friction coefficient of a contact: surface and
-fingertip both get the experiment's.
+DART bounds no spring force, so the effort limit is not applied. Joint position limits are switched on
+(DART's URDF loader leaves them off); velocity limits stay off, as in the other engines. DART takes the
+smaller friction coefficient of a contact: surface and fingertip both get the experiment's.
 """
 
 from __future__ import annotations
@@ -28,7 +28,10 @@ class DartEngine(Engine):
         from ..loaders import load_dart
 
         setup = config.setup
-        self.skeleton = skeleton = load_dart(config.variant)
+        # DART's own MIMIC actuators (what its URDF loader makes of <mimic>): the loader's two-way
+        # coupler constraint trails its channel here (0.2 rad behind on the pinky within 0.4 s, held
+        # to the followers' velocity limits), while the MIMIC servo tracks to 1e-4 rad.
+        self.skeleton = skeleton = load_dart(config.variant, coupler=False)
         self.world = world = dart.simulation.World()
         world.setTimeStep(config.timestep)
         world.setGravity([0.0, 0.0, -9.81])
@@ -47,7 +50,11 @@ class DartEngine(Engine):
                     body.setMomentOfInertia(value, value, value, 0.0, 0.0, 0.0)
         self.joints = [skeleton.getJoint(name) for name in setup.joints]
         for joint, q in zip(self.joints, setup.home_qpos, strict=True):
+            # Enforcing limits in DART enforces velocity limits too; the other engines (and the MJCF)
+            # have none, and a coupled joint capped at 1 rad/s would trail its channel.
             joint.setLimitEnforcement(True)
+            joint.setVelocityLowerLimit(0, -np.inf)
+            joint.setVelocityUpperLimit(0, np.inf)
             joint.setPosition(0, float(q))
             joint.setVelocity(0, 0.0)
         self.servos = [skeleton.getJoint(name) for name in setup.actuated]
@@ -105,8 +112,9 @@ class DartEngine(Engine):
             "solver": type(solver).__name__,
             "collision": self.world.getCollisionDetector().getType(),
             "split_impulse": bool(solver.isSplitImpulseEnabled()),
-            "couplings": "coupler constraints (svhdesc.loaders)",
+            "couplings": "MIMIC actuators (svhdesc.loaders, coupler=False)",
             "servo": "implicit joint spring + damper (kp, kv from the model), no effort limit",
             "friction": "min of the two shapes' coefficients (both the experiment's)",
             "armature": "none (URDF)",
+            "limits": "position enforced, velocity not",
         }

@@ -7,7 +7,7 @@ targets in, joint positions / fingertip force / fingertip position out.
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any
@@ -53,17 +53,12 @@ class Engine(ABC):
     install: str = ""  # how to get it
 
     @classmethod
-    def available(cls) -> bool:
-        return importlib.util.find_spec(cls.module) is not None
-
-    @classmethod
     def require(cls) -> None:
+        """Import the engine, or raise EngineMissing saying how to install it."""
         try:
-            ok = cls.available()
-        except (ImportError, ValueError):
-            ok = False
-        if not ok:
-            raise EngineMissing(f"not installed ({cls.install})")
+            importlib.import_module(cls.module)
+        except ImportError:
+            raise EngineMissing(f"not installed ({cls.install})") from None
 
     @abstractmethod
     def load(self, config: RunConfig) -> None:
