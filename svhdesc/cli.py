@@ -392,7 +392,7 @@ def compare_command(
             raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
         settings.append(value)
 
-    from .compare.report import markdown, plot, write_csv, write_json
+    from .compare.report import markdown, plot, plot_overview, write_csv, write_json
 
     def progress(result: Any) -> None:
         extra = f" ({result.note})" if result.note else ""
@@ -405,7 +405,8 @@ def compare_command(
     if csv_path is not None:
         write_csv(csv_path, results)
     if plots is not None:
-        for path in plot(results, plots, variant):
+        overview = plot_overview(results, plots / f"{variant}_compare_force.png")
+        for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
             click.echo(f"wrote {path}", err=True)
 
 

@@ -96,7 +96,7 @@ class BulletEngine(Engine):
     def settings(self) -> dict[str, Any]:
         params = self.p.getPhysicsEngineParameters(physicsClientId=self.client)
         return {
-            "version": self.p.getAPIVersion(physicsClientId=self.client),
+            "version": self.version(),
             "timestep": params["fixedTimeStep"],
             "solver": "sequential impulse (btMultiBody)",
             "iterations": params["numSolverIterations"],

@@ -108,6 +108,7 @@ class DartEngine(Engine):
     def settings(self) -> dict[str, Any]:
         solver = self.world.getConstraintSolver()
         return {
+            "version": self.version(),
             "timestep": float(self.world.getTimeStep()),
             "solver": type(solver).__name__,
             "collision": self.world.getCollisionDetector().getType(),

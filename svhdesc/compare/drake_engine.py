@@ -23,6 +23,7 @@ class DrakeEngine(Engine):
     name = "drake"
     module = "pydrake"
     install = "pip install drake"
+    distribution = "drake"
 
     def load(self, config: RunConfig) -> None:
         from pydrake.multibody.tree import RotationalInertia, SpatialInertia
@@ -41,6 +42,7 @@ class DrakeEngine(Engine):
             **{HOOK: lambda plant, instance: self._surface(plant, setup)},
         )
         self.plant, self.instance = plant, instance = robot.plant, robot.instance
+        self.tip_friction = _friction(robot.scene_graph, plant, setup.fingertip, instance)
         self.diagram = robot.builder.Build()
         self.simulator = Simulator(self.diagram)
         self.context = self.simulator.get_mutable_context()
@@ -111,30 +113,30 @@ class DrakeEngine(Engine):
         return float(self.plant.time_step())
 
     def settings(self) -> dict[str, Any]:
-        import pydrake
-
         plant = self.plant
         return {
-            "version": getattr(pydrake, "__version__", "?"),
+            "version": self.version(),
             "timestep": float(plant.time_step()),
             "solver": f"discrete, {plant.get_discrete_contact_approximation()}".replace(
                 "DiscreteContactApproximation.k", ""
             ),
             "contact_model": str(plant.get_contact_model()).replace("ContactModel.k", ""),
-            "stiction_tolerance": _query(plant, "stiction_tolerance"),
             "couplings": "SAP coupler constraints (svhdesc.loaders)",
             "servo": "PD-controlled actuators (implicit in SAP, kp, kv from the model, effort limits)",
-            "friction": "2ab/(a+b) of the two geometries (surface the experiment's)",
+            "friction": f"2ab/(a+b) of the two geometries (surface the experiment's, fingertip {self.tip_friction})",
             "armature": "none (URDF)",
         }
 
 
-def _query(plant: Any, method: str) -> Any:
-    """A plant setting, or '?' where this Drake version lacks the query."""
-    try:
-        return getattr(plant, method)()
-    except (AttributeError, RuntimeError):
-        return "?"
+def _friction(scene_graph: Any, plant: Any, link: str, instance: Any) -> str:
+    """The fingertip's sliding friction as parsed (the loader's; Drake's default is 1)."""
+    inspector = scene_graph.model_inspector()
+    values = set()
+    for geometry in plant.GetCollisionGeometriesForBody(plant.GetBodyByName(link, instance)):
+        properties = inspector.GetProximityProperties(geometry)
+        if properties is not None and properties.HasProperty("material", "coulomb_friction"):
+            values.add(properties.GetProperty("material", "coulomb_friction").dynamic_friction())
+    return ", ".join(f"{v:g}" for v in sorted(values)) or "?"
 
 
 def _gains(config: RunConfig) -> tuple[np.ndarray, np.ndarray]:

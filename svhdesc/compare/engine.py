@@ -51,6 +51,7 @@ class Engine(ABC):
     name: str = ""
     module: str = ""  # what must be importable
     install: str = ""  # how to get it
+    distribution: str = ""  # the PyPI name, where it differs from the module
 
     @classmethod
     def require(cls) -> None:
@@ -88,6 +89,16 @@ class Engine(ABC):
     @abstractmethod
     def timestep(self) -> float:
         """The step the engine actually takes [s]."""
+
+    @classmethod
+    def version(cls) -> str:
+        """The installed distribution's version (what `pip install` put there)."""
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version(cls.distribution or cls.module)
+        except PackageNotFoundError:
+            return "?"
 
     def close(self) -> None:  # noqa: B027 - optional hook
         """Free engine resources (a pybullet client, for example)."""

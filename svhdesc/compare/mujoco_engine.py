@@ -118,7 +118,7 @@ class MujocoEngine(Engine):
 
         opt = self.model.opt
         return {
-            "version": mujoco.__version__,
+            "version": self.version(),
             "timestep": float(opt.timestep),
             "integrator": mujoco.mjtIntegrator(opt.integrator).name.removeprefix("mjINT_").lower(),
             "solver": mujoco.mjtSolver(opt.solver).name.removeprefix("mjSOL_").lower(),

@@ -72,6 +72,50 @@ def markdown(setup: Setup, results: list[Result], variant: str) -> str:
     return "\n".join(lines)
 
 
+# Thesis Tables 5.1 (Gazebo) and 5.2 (MuJoCo, on its 0.09 kg model): average MAD over the 15 joints [rad].
+THESIS = {"Gazebo (thesis Table 5.1)": {"0.001": 5.1799e-05, "0.01": 5.8178e-06, "0.1": 5.7914e-06}}
+THESIS_MUJOCO = {"MuJoCo (thesis Table 5.2, 0.09 kg robot)": {"0.1": 4.3664e-17}}
+
+
+def summary(results: list[Result]) -> str:
+    """Compact tables for the README: average MAD per engine x inertia beside the thesis' averages, then
+    force, coupling, pose and speed per run."""
+    labels = list(dict.fromkeys(r.label for r in results))
+    engines = list(dict.fromkeys(r.engine for r in results))
+    by_key = {(r.engine, r.label): r for r in results}
+    lines = ["| average MAD [rad] | " + " | ".join(f"inertia {label}" for label in labels) + " |"]
+    lines.append("|" + "---|" * (len(labels) + 1))
+    for name, row in {**THESIS, **THESIS_MUJOCO}.items():
+        lines.append(f"| {name} | " + " | ".join(_sci(row.get(label)) for label in labels) + " |")
+    for engine in engines:
+        cells = []
+        for label in labels:
+            run = by_key.get((engine, label))
+            if run is None:
+                cells.append("")
+            elif run.status == STATUS_OK:
+                cells.append(_sci(run.mad_average))
+            else:
+                cells.append(run.status + (f" at {run.failed_at:.2f} s" if run.failed_at is not None else ""))
+        lines.append(f"| {engine} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "| engine | inertia | force mean +- std [N] | in contact | coupling residual approach / run [rad] "
+        "| fingertip error [mm] | real-time factor |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for run in results:
+        if run.status != STATUS_OK:
+            lines.append(f"| {run.engine} | {run.label} | {run.status}: {run.note} | | | | |")
+            continue
+        lines.append(
+            f"| {run.engine} | {run.label} | {run.force_mean:.3g} +- {run.force_std:.2g} | "
+            f"{_percent(run.contact_share)} | {_sci(run.coupling_residual_free)} / {_sci(run.coupling_residual)} | "
+            f"{run.tip_error * 1e3:.1f} | {_fixed(run.realtime_factor, 2)} |"
+        )
+    return "\n".join(lines)
+
+
 def _fixed(value: float, digits: int) -> str:
     return "-" if not math.isfinite(value) else f"{value:.{digits}g}"
 
@@ -169,6 +213,7 @@ def plot(results: list[Result], directory: Path, variant: str) -> list[Path]:
             label=f"moving mean ({FORCE_WINDOW} samples)",
         )
         axis.axvspan(start, result.time[-1], color="0.9", zorder=0)
+        _clip_impact(axis, result)
         axis.set_xlabel("time [s]")
         axis.set_ylabel("force [N]")
         axis.set_title(f"{result.engine}, finger inertia {result.label}: fingertip contact force")
@@ -180,3 +225,55 @@ def plot(results: list[Result], directory: Path, variant: str) -> list[Path]:
         plt.close(fig)
         written.append(path)
     return written
+
+
+def _clip_impact(axis: Any, run: Result) -> None:
+    """Scale the force axis to the recorded window: the impact peak at first touch would flatten it."""
+    recorded = run.force[run.record_from :]
+    if not len(recorded):
+        return
+    top = max(1.5 * float(recorded.max()), 1.0)
+    peak = float(run.force.max())
+    axis.set_ylim(min(0.0, float(recorded.min())), top)
+    if peak > top:
+        axis.text(0.01, 0.95, f"impact peak {peak:.0f} N (clipped)", transform=axis.transAxes, fontsize=6, va="top")
+
+
+def plot_overview(results: list[Result], path: Path) -> Path | None:
+    """One figure like thesis Fig. 5.16: fingertip force and its moving mean, engines x inertia settings."""
+    runs = [r for r in results if len(r.time)]
+    if not runs:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    engines = list(dict.fromkeys(r.engine for r in runs))
+    labels = list(dict.fromkeys(r.label for r in runs))
+    fig, axes = plt.subplots(
+        len(engines), len(labels), figsize=(max(3.2 * len(labels), 6.0), 2.2 * len(engines)), sharex=True, squeeze=False
+    )
+    for axis in axes.flat:
+        axis.set_visible(False)
+    for run in runs:
+        axis = axes[engines.index(run.engine), labels.index(run.label)]
+        axis.set_visible(True)
+        axis.plot(run.time, run.force, color="black", linewidth=0.5)
+        axis.plot(run.time, moving_mean(run.force, FORCE_WINDOW), color="red", linewidth=0.9)
+        _clip_impact(axis, run)
+        axis.set_title(f"{run.engine}, inertia {run.label}", fontsize=8)
+        axis.tick_params(labelsize=7)
+        axis.grid(True, linewidth=0.3)
+        if run.failed_at is not None:
+            axis.axvline(run.failed_at, color="orange", linewidth=1.0)
+    for axis in axes[-1, :]:
+        axis.set_xlabel("time [s]", fontsize=8)
+    for axis in axes[:, 0]:
+        axis.set_ylabel("force [N]", fontsize=8)
+    fig.suptitle("Index fingertip normal force (black) and its moving mean (red)", fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
