@@ -54,6 +54,13 @@ def couplings(name: str) -> list[Coupling]:
     ]
 
 
+def contact_excludes(name: str) -> list[tuple[str, str]]:
+    """Link pairs the MJCF never collides (adjacent, or touching at rest): engines with self-collision
+    on by default (Drake) need the same filter, or the fingers start in contact with the palm."""
+    root = etree.parse(str(get(name).mjcf_path)).getroot()
+    return [(e.get("body1"), e.get("body2")) for e in root.iter("exclude")]
+
+
 def absolute_urdf(name: str) -> Path:
     """The variant's URDF with every mesh as an absolute path, for engines without ROS package lookup.
 

@@ -5,8 +5,11 @@ coupler constraint (Drake ignores <mimic> for any other plant).
     diagram = robot.builder.Build()
     # feed robot.plant.get_desired_state_input_port(robot.instance) for the PD-controlled actuators
 
-Drake only collides OBJ/VTK/glTF meshes: the build writes every collision mesh as OBJ (visuals stay STL,
-which Drake accepts for illustration).
+Drake collides every pair of bodies but parent and child: the loader applies the MJCF's contact
+exclusions (adjacent links, and pairs that touch at rest). Drake only collides OBJ/VTK/glTF meshes:
+the build writes every collision mesh as OBJ (visuals stay STL, which Drake accepts for illustration).
+Pitfalls (drake 1.51): the plant must be SAP *before* parsing; PdControllerGains lives in
+pydrake.multibody.tree; GetJointActuatorIndices(instance) is empty until Finalize.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ._common import absolute_urdf, require
+from ._common import absolute_urdf, contact_excludes, require
 
 
 @dataclass
@@ -41,7 +44,8 @@ def load_drake(
         raise ValueError("Drake's coupler constraints need a discrete plant: time_step > 0")
     require("pydrake", "load_drake")
     from pydrake.multibody.parsing import Parser
-    from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig, PdControllerGains
+    from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+    from pydrake.multibody.tree import JointActuatorIndex, PdControllerGains
     from pydrake.systems.framework import DiagramBuilder
 
     builder = builder or DiagramBuilder()
@@ -50,12 +54,26 @@ def load_drake(
     plant, scene_graph = AddMultibodyPlant(config, builder)
     (instance,) = Parser(plant).AddModels(str(absolute_urdf(name)))
     gains = dict(pd_gains or {})
-    for index in plant.GetJointActuatorIndices(instance):
-        actuator = plant.get_joint_actuator(index)
-        if actuator.joint().name() in gains:
+    for index in range(plant.num_actuators()):  # GetJointActuatorIndices is empty before Finalize
+        actuator = plant.get_joint_actuator(JointActuatorIndex(index))
+        if actuator.model_instance() == instance and actuator.joint().name() in gains:
             kp, kd = gains.pop(actuator.joint().name())
             actuator.set_controller_gains(PdControllerGains(p=kp, d=kd))
     if gains:
         raise KeyError(f"no actuated joint named {', '.join(sorted(gains))}")
     plant.Finalize()
+    _exclude_contacts(name, plant, scene_graph)
     return DrakeRobot(builder, plant, scene_graph, instance)
+
+
+def _exclude_contacts(name: str, plant: Any, scene_graph: Any) -> None:
+    """Apply the MJCF's contact exclusions: Drake collides every non-adjacent pair of bodies."""
+    from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+
+    declaration = CollisionFilterDeclaration()
+    for first, second in contact_excludes(name):
+        if plant.HasBodyNamed(first) and plant.HasBodyNamed(second):
+            a = plant.GetCollisionGeometriesForBody(plant.GetBodyByName(first))
+            b = plant.GetCollisionGeometriesForBody(plant.GetBodyByName(second))
+            declaration.ExcludeBetween(GeometrySet(a), GeometrySet(b))
+    scene_graph.collision_filter_manager().Apply(declaration)

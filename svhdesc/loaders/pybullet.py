@@ -1,12 +1,20 @@
 """pybullet: the URDF plus one JOINT_GEAR constraint per coupled joint (pybullet ignores <mimic>).
 
     robot = load_pybullet("svh_right")            # connects a DIRECT client unless given one
-    p.setJointMotorControl2(robot.body, robot.joints["right_hand_Pinky"], p.POSITION_CONTROL, 0.5)
+    p.setJointMotorControl2(robot.body, robot.joints["right_hand_Pinky"], p.POSITION_CONTROL,
+                            targetPosition=0.5, force=1.0, maxVelocity=1.0,
+                            physicsClientId=robot.client)
     p.stepSimulation(physicsClientId=robot.client) # j13, j17 follow through robot.constraints
 
 Followers get their default velocity motor switched off, so only the gear drives them.
 Bullet's gear constraint holds q_follower + ratio * q_leader = target; ratio = -multiplier,
 target = offset.
+
+Pitfall (pybullet 3.2.7): a POSITION_CONTROL motor without ``maxVelocity`` asks for
+positionGain * error / dt and saturates at its force limit; a saturated motor on a channel makes
+the solver break that channel's gears (the channel then swings by tenths of a radian). Give
+channel motors ``maxVelocity`` (the URDF's velocity limit, 1 rad/s for the hand): the couplings then
+hold within 2e-4 rad.
 """
 
 from __future__ import annotations
