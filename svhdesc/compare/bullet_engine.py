@@ -101,7 +101,8 @@ class BulletEngine(Engine):
             "solver": "sequential impulse (btMultiBody)",
             "iterations": params["numSolverIterations"],
             "couplings": "JOINT_GEAR constraints (svhdesc.loaders)",
-            "servo": f"POSITION_CONTROL motors, gains {POSITION_GAIN}/{VELOCITY_GAIN}, force = effort limit",
+            "servo": f"POSITION_CONTROL motors, gains {POSITION_GAIN}/{VELOCITY_GAIN}, force = effort limit "
+            "(a velocity constraint: it holds against gravity without a feedforward)",
             "friction": "product of the two bodies' coefficients (surface 1, fingertip the model's)",
             "armature": "none (URDF)",
         }

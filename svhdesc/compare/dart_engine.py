@@ -2,7 +2,9 @@
 as DART's MIMIC actuators), plus the surface as a welded one-body skeleton.
 
 Servos: DART's joint spring and damper, which it integrates implicitly, used as a PD servo: stiffness
-kp, rest position = target, damping = the URDF's joint damping + kv (the gains of ``engine.Servo``).
+kp, rest position = target, damping = the URDF's joint damping + kv (the gains of ``engine.Servo``),
+plus gravity compensation g(q) as a joint force on the actuated joints (the MJCF's servos compensate
+gravity too).
 DART bounds no spring force, so the effort limit is not applied. Joint position limits are switched on
 (DART's URDF loader leaves them off); velocity limits stay off, as in the other engines. DART takes the
 smaller friction coefficient of a contact: surface and fingertip both get the experiment's.
@@ -58,6 +60,7 @@ class DartEngine(Engine):
             joint.setPosition(0, float(q))
             joint.setVelocity(0, 0.0)
         self.servos = [skeleton.getJoint(name) for name in setup.actuated]
+        self.servo_dofs = [joint.getIndexInSkeleton(0) for joint in self.servos]
         for joint, kp, kv in zip(self.servos, config.servo.kp, config.servo.kv, strict=True):
             joint.setSpringStiffness(0, float(kp))
             joint.setDampingCoefficient(0, joint.getDampingCoefficient(0) + float(kv))
@@ -79,8 +82,11 @@ class DartEngine(Engine):
         return skeleton
 
     def step(self, targets: np.ndarray) -> None:
-        for joint, target in zip(self.servos, targets, strict=True):
+        # Gravity compensation, as the MJCF's servos have it: the actuated joints carry g(q).
+        gravity = self.skeleton.getGravityForces()
+        for joint, dof, target in zip(self.servos, self.servo_dofs, targets, strict=True):
             joint.setRestPosition(0, float(target))
+            joint.setForce(0, float(gravity[dof]))
         self.world.step()
 
     def joint_positions(self) -> np.ndarray:
@@ -114,7 +120,7 @@ class DartEngine(Engine):
             "collision": self.world.getCollisionDetector().getType(),
             "split_impulse": bool(solver.isSplitImpulseEnabled()),
             "couplings": "MIMIC actuators (svhdesc.loaders, coupler=False)",
-            "servo": "implicit joint spring + damper (kp, kv from the model), no effort limit",
+            "servo": "implicit joint spring + damper (kp, kv from the model) + gravity feedforward, no effort limit",
             "friction": "min of the two shapes' coefficients (both the experiment's)",
             "armature": "none (URDF)",
             "limits": "position enforced, velocity not",

@@ -2,7 +2,8 @@
 constraints), plus the surface registered on the world body before the plant is finalized.
 
 Servos: Drake's PD-controlled actuators (implicit in SAP, clamped to the URDF effort limits) with the
-gains of ``engine.Servo``. Drake combines two friction coefficients as 2 a b / (a + b): surface and
+gains of ``engine.Servo``, plus gravity compensation fed forward through the actuation port (the MJCF's
+servos compensate gravity too). Drake combines two friction coefficients as 2 a b / (a + b): surface and
 fingertip both get the experiment's.
 """
 
@@ -65,6 +66,10 @@ class DrakeEngine(Engine):
         order = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(instance)]
         self.order = np.array([setup.actuated.index(name) for name in order])
         self.port = plant.get_desired_state_input_port(instance)
+        self.actuation = plant.get_actuation_input_port(instance)
+        self.actuator_dofs = [
+            plant.get_joint_actuator(i).joint().velocity_start() for i in plant.GetJointActuatorIndices(instance)
+        ]
         self.zeros = np.zeros(len(order))
         self._dt = config.timestep
         self._time = 0.0
@@ -83,6 +88,10 @@ class DrakeEngine(Engine):
 
     def step(self, targets: np.ndarray) -> None:
         self.port.FixValue(self.plant_context, np.concatenate([targets[self.order], self.zeros]))
+        # Gravity compensation, as the MJCF's servos have it: Drake adds this feedforward to the PD
+        # output (and clamps the sum to the effort limit).
+        gravity = self.plant.CalcGravityGeneralizedForces(self.plant_context)
+        self.actuation.FixValue(self.plant_context, -gravity[self.actuator_dofs])
         self._time += self._dt
         self.simulator.AdvanceTo(self._time)
 
@@ -122,7 +131,8 @@ class DrakeEngine(Engine):
             ),
             "contact_model": str(plant.get_contact_model()).replace("ContactModel.k", ""),
             "couplings": "SAP coupler constraints (svhdesc.loaders)",
-            "servo": "PD-controlled actuators (implicit in SAP, kp, kv from the model, effort limits)",
+            "servo": "PD-controlled actuators (implicit in SAP, kp, kv from the model) + gravity feedforward, "
+            "effort limits",
             "friction": f"2ab/(a+b) of the two geometries (surface the experiment's, fingertip {self.tip_friction})",
             "armature": "none (URDF)",
         }

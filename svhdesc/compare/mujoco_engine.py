@@ -129,7 +129,8 @@ class MujocoEngine(Engine):
             "noslip_iterations": int(opt.noslip_iterations),
             "couplings": "joint equalities, solref "
             + (" ".join(f"{v:g}" for v in self.model.eq_solref[0]) if self.model.neq else "-"),
-            "servo": "position actuators (implicit PD, kp from the model, dampratio 1, forcerange)",
+            "servo": "position actuators (implicit PD, kp from the model, dampratio 1, forcerange) + the MJCF's "
+            "gravity compensation",
             "friction": "per geom, combined by max",
             "armature": "from the MJCF (URDF has none)",
         }
