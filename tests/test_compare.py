@@ -96,3 +96,16 @@ def test_cli_rejects_bad_input() -> None:
         )
         assert run.returncode == 2 and run.stderr.startswith("error:"), (args, run.stderr)
         assert "Traceback" not in run.stderr
+
+
+def test_explosion_is_detected_and_reported() -> None:
+    from svhdesc.compare.report import summary
+    from svhdesc.compare.runner import STATUS_BLEW_UP, _exploded
+
+    home = np.zeros(3)
+    assert _exploded(np.array([0.1, -0.2]), home, home) is None
+    assert _exploded(np.array([0.1, np.nan]), home, home) == "NaN"
+    assert "rad" in _exploded(np.array([0.1, 80.0]), home, home)
+    assert " m away" in _exploded(np.zeros(2), np.array([0.0, 0.0, 9.0]), home)
+    failed = Result("bullet", 0.001, STATUS_BLEW_UP, note="NaN at t = 1.234 s", failed_at=1.234)
+    assert "blew up at 1.23 s" in summary([failed])
