@@ -109,3 +109,23 @@ def test_explosion_is_detected_and_reported() -> None:
     assert " m away" in _exploded(np.zeros(2), np.array([0.0, 0.0, 9.0]), home)
     failed = Result("bullet", 0.001, STATUS_BLEW_UP, note="NaN at t = 1.234 s", failed_at=1.234)
     assert "blew up at 1.23 s" in summary([failed])
+
+
+def test_adapter_interface_at_home() -> None:
+    import svhdesc
+    from svhdesc.compare.engine import RunConfig
+    from svhdesc.compare.mujoco_engine import MujocoEngine, finger_links, servo
+
+    mjcf = svhdesc.get(VARIANT).mjcf_path
+    setup = experiment.define(mjcf)
+    links = finger_links(mjcf)
+    assert "right_hand_t" in links and "wrist_3_link" not in links
+    engine = MujocoEngine()
+    engine.load(RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated)))
+    assert engine.joint_positions() == pytest.approx(setup.home_qpos)
+    assert engine.coupling_residual(setup) == pytest.approx(0.0, abs=1e-12)
+    engine.step(setup.home_ctrl)
+    assert engine.fingertip_force() == 0.0  # far from the surface at home
+    assert np.linalg.norm(engine.fingertip_position() - setup.tip_test_position) > 0.3
+    finger = engine.model.body("right_hand_t").id
+    assert engine.model.body_inertia[finger] == pytest.approx([0.01] * 3)

@@ -81,6 +81,11 @@ class Engine(ABC):
     def fingertip_position(self) -> np.ndarray:
         """World position of the fingertip link frame [m]."""
 
+    def coupling_residual(self, setup: Setup) -> float:
+        """Worst |q_coupled - f(q_channel)| over the couplings now [rad], from the engine's own joint positions."""
+        residual = setup.coupling_residual(self.joint_positions())
+        return float(residual.max()) if residual.size else 0.0
+
     @abstractmethod
     def settings(self) -> dict[str, Any]:
         """Solver and contact settings in force, to print beside the results."""
