@@ -5,9 +5,9 @@ svhdesc.variants()                      # ['svh_left', 'svh_right', 'ur5_svh_rig
 model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path
 svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
 m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
-svhdesc.load_pinocchio, svhdesc.load_pybullet, svhdesc.load_drake, svhdesc.load_dart  # see svhdesc.loaders
 model.package_name                      # each variant folder is a ROS package (package://NAME/assets/...)
 model.absolute_urdf_path()              # the URDF with absolute mesh paths, for tools without ROS
+svhdesc.load_pinocchio, svhdesc.load_pybullet, svhdesc.load_drake, svhdesc.load_dart  # see svhdesc.loaders
 """
 
 from __future__ import annotations

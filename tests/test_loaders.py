@@ -73,18 +73,19 @@ def test_eleven_couplings_from_the_urdf() -> None:
 
 # --- a missing engine ----------------------------------------------------------------------------
 
-ENGINES = {
-    "load_pinocchio": "pinocchio",
-    "load_pybullet": "pybullet",
-    "load_drake": "pydrake",
-    "load_dart": "dartpy",
-    "load_mujoco": "mujoco",
+ENGINES = {  # loader -> (module, PyPI distribution, extra)
+    "load_pinocchio": ("pinocchio", "pin", "engines"),
+    "load_pybullet": ("pybullet", "pybullet", "engines"),
+    "load_drake": ("pydrake", "drake", "engines"),
+    "load_dart": ("dartpy", "dartpy", "engines"),
+    "load_mujoco": ("mujoco", "mujoco", "sim"),
 }
+MODULES = [module for module, _, _ in ENGINES.values()]
 
 
 def test_importing_the_loaders_imports_no_engine() -> None:
     code = "import sys, svhdesc, svhdesc.loaders; print(sorted(set(sys.argv[1:]) & set(sys.modules)))"
-    out = subprocess.run([sys.executable, "-c", code, *ENGINES.values()], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", code, *MODULES], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
 
@@ -97,20 +98,20 @@ def test_missing_engine_names_the_extra() -> None:
         for module in blocked:
             sys.modules[module] = None
         import svhdesc
-        from svhdesc.loaders import MissingEngine
+        from svhdesc.extras import MissingExtra
         for loader in ("load_pinocchio", "load_pybullet", "load_drake", "load_dart", "load_mujoco"):
             try:
                 getattr(svhdesc, loader)("svh_right")
-            except MissingEngine as exc:
+            except MissingExtra as exc:
                 print(exc)
         """
     )
-    out = subprocess.run([sys.executable, "-c", code, *ENGINES.values()], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", code, *MODULES], capture_output=True, text=True, check=True)
     lines = out.stdout.strip().splitlines()
     assert len(lines) == len(ENGINES)
-    for line, (loader, module) in zip(lines, ENGINES.items()):
-        extra = "sim" if module == "mujoco" else "engines"
-        assert line == f"{loader} needs {module}: pip install 'svhdesc[{extra}]'"
+    for line, (loader, (_, dist, extra)) in zip(lines, ENGINES.items()):
+        hint = f"pip install 'svhdesc[{extra}]'"
+        assert line == f"{loader} needs the Python package '{dist}', which is not installed: {hint}"
 
 
 # --- pinocchio -------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Load a built variant into the engines people use, in the spirit of robot_descriptions' loaders.
 
-Each loader imports its engine only when called (a missing engine raises ``MissingEngine`` naming the
-pip extra) and honours the hand's 11 couplings (the URDF's ``<mimic>``, from ``config/coupling.yaml``):
+Each loader imports its engine only when called (a missing engine raises ``svhdesc.extras.MissingExtra``
+naming the pip extra) and honours the hand's 11 couplings (the URDF's ``<mimic>``, from ``config/coupling.yaml``):
 
     from svhdesc.loaders import load_dart, load_drake, load_mujoco, load_pinocchio, load_pybullet
     model = load_mujoco("svh_right")                   # mujoco.MjModel (joint equalities)
@@ -15,7 +15,7 @@ The same functions are exported lazily from ``svhdesc`` (``svhdesc.load_pybullet
 
 from __future__ import annotations
 
-from ._common import Coupling, MissingEngine, couplings
+from ._common import Coupling, couplings
 from .dart import load_dart
 from .drake import DrakeRobot, load_drake
 from .mujoco import load_mujoco
@@ -25,7 +25,6 @@ from .pybullet import PybulletRobot, load_pybullet
 __all__ = [
     "Coupling",
     "DrakeRobot",
-    "MissingEngine",
     "PybulletRobot",
     "couplings",
     "load_dart",

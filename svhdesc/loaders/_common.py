@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-import importlib
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -12,21 +9,12 @@ from types import ModuleType
 from lxml import etree
 
 from .. import get
-from ..errors import SvhdescError
-
-EXTRA = "engines"
+from ..extras import require as _require
 
 
-class MissingEngine(SvhdescError, ImportError):
-    """A loader's engine is not installed; the message names the pip extra that installs it."""
-
-
-def require(module: str, loader: str, extra: str = EXTRA) -> ModuleType:
-    """Import an engine on first use, or say in one line how to install it."""
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        raise MissingEngine(f"{loader} needs {module}: pip install 'svhdesc[{extra}]'") from None
+def require(module: str, loader: str) -> ModuleType:
+    """Import an engine on first use, or raise svhdesc.extras.MissingExtra naming the pip extra."""
+    return _require(module, purpose=loader)
 
 
 @dataclass(frozen=True)
@@ -62,33 +50,6 @@ def contact_excludes(name: str) -> list[tuple[str, str]]:
 
 
 def absolute_urdf(name: str) -> Path:
-    """The variant's URDF with every mesh as an absolute path, for engines without ROS package lookup.
-
-    The one place loaders get their URDF from, so that it can become the public
-    ``svhdesc.get(name).absolute_urdf_path()`` once that exists. Understands relative URIs
-    (``assets/x.stl``), ``package://<variant>/...`` and ``file://``. Cached by content in the temp dir.
-    """
-    model = get(name)
-    root = etree.parse(str(model.urdf_path)).getroot()
-    for mesh in root.iter("mesh"):
-        mesh.set("filename", str(_mesh_path(mesh.get("filename", ""), model.name, model.directory)))
-    data = etree.tostring(root, xml_declaration=True, encoding="utf-8")
-    digest = hashlib.sha256(data).hexdigest()[:16]
-    path = Path(tempfile.gettempdir()) / "svhdesc-urdf" / f"{name}-{digest}.urdf"
-    if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{digest}.tmp")
-        partial.write_bytes(data)
-        partial.replace(path)  # atomic: parallel loaders never read a half-written file
-    return path
-
-
-def _mesh_path(uri: str, package: str, directory: Path) -> Path:
-    if uri.startswith("file://"):
-        return Path(uri[len("file://") :])
-    if uri.startswith("package://"):
-        owner, _, rest = uri[len("package://") :].partition("/")
-        if owner != package:
-            raise SvhdescError(f"{uri}: mesh of another package than {package}")
-        return (directory / rest).resolve()
-    return (directory / uri).resolve()
+    """The variant's URDF with every mesh as an absolute path (pybullet, pinocchio, Drake and DART have
+    no ROS package lookup); every loader gets its URDF here."""
+    return get(name).absolute_urdf_path("path")
