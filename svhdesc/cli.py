@@ -386,7 +386,12 @@ def compare_command(
     import svhdesc
 
     from .compare.runner import ENGINES, inertia_label, run_grid
+    from .extras import require
 
+    # MuJoCo places the surface for every engine; matplotlib draws the plots. Both before any run.
+    require("mujoco", "'svhdesc compare'", "sim")
+    if plots is not None:
+        require("matplotlib", "'svhdesc compare --plots'")
     if variant not in svhdesc.variants():
         raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc.variants())}")
     names = [n.strip() for n in engines.split(",") if n.strip()]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -79,7 +80,7 @@ def test_missing_engine_is_reported_not_raised(tmp_path) -> None:
         "import sys; sys.modules['pybullet'] = None\n"
         "from svhdesc.cli import main\n"
         "main(['compare', '--engines', 'bullet,mujoco', '--inertias', 'physical', '--duration', '0.3',"
-        f" '--json', {str(tmp_path / 'r.json')!r}])\n"
+        f" '--json', {str(tmp_path / 'r.json')!r}, '--csv', {str(tmp_path / 'r.csv')!r}])\n"
     )
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
@@ -87,6 +88,10 @@ def test_missing_engine_is_reported_not_raised(tmp_path) -> None:
     results = {r["engine"]: r for r in json.loads((tmp_path / "r.json").read_text())["results"]}
     assert results["bullet"]["status"] == STATUS_MISSING
     assert results["mujoco"]["status"] == STATUS_OK
+    rows = list(csv.DictReader((tmp_path / "r.csv").open()))
+    mujoco_rows = [r for r in rows if r["engine"] == "mujoco"]
+    assert len(mujoco_rows) == len(results["mujoco"]["mad_rad"]) == 26  # one row per joint
+    assert [r["status"] for r in rows if r["engine"] == "bullet"] == [STATUS_MISSING]
 
 
 def test_cli_rejects_bad_input() -> None:
