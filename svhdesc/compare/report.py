@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from .experiment import Setup, moving_mean
-from .runner import FORCE_WINDOW, STATUS_OK, TIP_TOLERANCE, Result
+from .runner import FORCE_WINDOW, STATUS_MISSING, STATUS_OK, TIP_TOLERANCE, Result
 
 
 def _short(joint: str) -> str:
@@ -60,7 +60,7 @@ def markdown(setup: Setup, results: list[Result], variant: str) -> str:
         ],
     )
     row("real-time factor", [_fixed(r.realtime_factor, 2) for r in results])
-    row("status", [r.status + (f": {r.note}" if r.note else "") for r in results])
+    row("status", [_status(r) for r in results])
     lines.append("")
     lines.append("Solver settings:")
     seen: set[str] = set()
@@ -106,7 +106,7 @@ def summary(results: list[Result]) -> str:
     ]
     for run in results:
         if run.status != STATUS_OK:
-            lines.append(f"| {run.engine} | {run.label} | {run.status}: {run.note} | | | | |")
+            lines.append(f"| {run.engine} | {run.label} | {_status(run)} | | | | |")
             continue
         lines.append(
             f"| {run.engine} | {run.label} | {run.force_mean:.3g} +- {run.force_std:.2g} | "
@@ -114,6 +114,12 @@ def summary(results: list[Result]) -> str:
             f"{run.tip_error * 1e3:.1f} | {_fixed(run.realtime_factor, 2)} |"
         )
     return "\n".join(lines)
+
+
+def _status(run: Result) -> str:
+    if run.status == STATUS_MISSING:
+        return run.note  # already "not installed (pip install ...)"
+    return run.status + (f": {run.note}" if run.note else "")
 
 
 def _fixed(value: float, digits: int) -> str:
