@@ -139,8 +139,14 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
     force, tips = np.zeros(samples), np.zeros((samples, 3))
     count = 0
     started = time.perf_counter()
+    step = -1
     for step in range(total):
-        engine.step(experiment.ramp(setup.home_ctrl, setup.test_ctrl, step, dt, ramp_s))
+        try:
+            engine.step(experiment.ramp(setup.home_ctrl, setup.test_ctrl, step, dt, ramp_s))
+        except Exception as exc:  # noqa: BLE001 - a solver that gives up mid-run has blown up, too
+            result.status, result.failed_at = STATUS_BLEW_UP, (step + 1) * dt
+            result.note = f"{type(exc).__name__}: {str(exc).strip()[:200]} at t = {(step + 1) * dt:.3f} s"
+            break
         if (step + 1) % every:
             continue
         q, tip = engine.joint_positions(), engine.fingertip_position()
