@@ -14,7 +14,7 @@ pydrake.multibody.tree; GetJointActuatorIndices(instance) is empty until Finaliz
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,11 +34,14 @@ def load_drake(
     time_step: float = 1e-3,
     pd_gains: Mapping[str, tuple[float, float]] | None = None,
     builder: Any = None,
+    before_finalize: Callable[[Any, Any], None] | None = None,
 ) -> DrakeRobot:
     """Plant and scene graph in ``builder`` (a new DiagramBuilder if None), finalized.
 
     ``pd_gains`` (joint name -> (kp, kd)) makes those joints' actuators Drake's implicit PD
     controllers, driven through the plant's desired-state input port; the rest take torques.
+    ``before_finalize(plant, instance)`` runs just before ``Finalize()``: Drake registers geometry
+    (a table, a contact surface) only until then.
     """
     if time_step <= 0:
         raise ValueError("Drake's coupler constraints need a discrete plant: time_step > 0")
@@ -61,6 +64,8 @@ def load_drake(
             actuator.set_controller_gains(PdControllerGains(p=kp, d=kd))
     if gains:
         raise KeyError(f"no actuated joint named {', '.join(sorted(gains))}")
+    if before_finalize is not None:
+        before_finalize(plant, instance)
     plant.Finalize()
     _exclude_contacts(name, plant, scene_graph)
     return DrakeRobot(builder, plant, scene_graph, instance)
