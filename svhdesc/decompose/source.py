@@ -11,7 +11,7 @@ from pathlib import Path
 import trimesh
 
 from .. import manifest as manifest_file
-from ..meshes import mesh_from_stl, stl_bytes
+from ..meshes import stl_bytes
 from .cache import HullCache
 from .keys import cache_key
 from .params import DecompParams
@@ -25,13 +25,20 @@ def default_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "svhdesc" / "hulls"
 
 
+def _mesh(data: bytes, file_type: str = "stl") -> trimesh.Trimesh:
+    # Committed collision hulls are OBJ (older outputs STL); both hold the same float32 corners.
+    mesh = trimesh.load(trimesh.util.wrap_as_stream(data), file_type=file_type, process=False)
+    mesh.merge_vertices(digits_vertex=12)
+    return mesh
+
+
 @dataclass
 class HullSource:
     cache: HullCache | None
     jobs: int = 0
     force: bool = False
     progress: bool = False
-    seeds: dict[str, list[bytes]] = field(default_factory=dict)  # key -> hull STL bytes
+    seeds: dict[str, list[tuple[str, bytes]]] = field(default_factory=dict)  # key -> (format, hull bytes)
     results: dict[str, list[trimesh.Trimesh]] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=lambda: {"decomposed": 0, "cached": 0, "committed": 0})
 
@@ -51,15 +58,15 @@ class HullSource:
                     data = path.read_bytes() if path.is_file() else None
                     if data is None or hashlib.sha256(data).hexdigest() != outputs.get(f"assets/{name}"):
                         break  # a missing or edited file is not a cache entry
-                    blobs.append(data)
+                    blobs.append((path.suffix[1:].lower(), data))
                 else:
                     self.seeds[key] = blobs
 
     def _seeded(self, key: str) -> list[trimesh.Trimesh] | None:
         """Committed hulls for ``key``; a file that does not parse (its manifest edited to match) is ignored."""
         try:
-            return [mesh_from_stl(b) for b in self.seeds[key]] if key in self.seeds else None
-        except ValueError:
+            return [_mesh(b, kind) for kind, b in self.seeds[key]] if key in self.seeds else None
+        except Exception:  # any parser failure: decompose again
             return None
 
     def prefetch(self, jobs: list[tuple[str, trimesh.Trimesh, DecompParams]]) -> None:
