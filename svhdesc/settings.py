@@ -203,8 +203,10 @@ class Hand(Located):
     prefix: str = _field(None, text, required=True)
     fingertips: list[str] = _field([], names)
     force_sensor: str | None = _field(None, optional(text))
-    joint_damping: float = _field(0.0, number(0.0))
+    joint_damping: float = _field(0.0, number(0.0))  # channel joints (the drives)
     joint_armature: float = _field(0.0, number(0.0))
+    coupled_joint_damping: float = _field(0.0, number(0.0))  # joints that follow a channel
+    coupled_joint_armature: float = _field(0.0, number(0.0))
     kp: float = _field(10.0, number(0.0))
     dampratio: float = _field(1.0, number(0.0, 100.0))
     limit_margin: float = _field(0.0, number(0.0, 0.1))

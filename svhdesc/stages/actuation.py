@@ -56,8 +56,9 @@ def add_actuation(robot: Robot, hand: Hand, arm: Arm, transmissions: Transmissio
                 joint,
                 effort=channel.effort,
                 velocity=channel.velocity * _speed_ratio(joint, channel),
-                damping=hand.joint_damping,
-                armature=hand.joint_armature,
+                # The drive's friction and reflected inertia sit at the motor, i.e. the channel joint.
+                damping=hand.joint_damping if joint.name in channel_of else hand.coupled_joint_damping,
+                armature=hand.joint_armature if joint.name in channel_of else hand.coupled_joint_armature,
                 limit_margin=hand.limit_margin,
                 limit_solref=_solref(hand.limit_solref),
             )
