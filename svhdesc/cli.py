@@ -1,4 +1,4 @@
-"""Command line: ``svhdesc build|list|info|validate|render``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render|sim``. Bad input: one line on stderr, exit code 2."""
 
 from __future__ import annotations
 
@@ -325,6 +325,57 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
     backend = render(target, out_file, keyframe, dimensions)
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
+
+
+@main.command("sim", context_settings={"ignore_unknown_options": True})
+@click.argument("variant")
+@click.option("--keyframe", default="home", show_default=True, help="Start pose (a keyframe of the model).")
+@click.option("--ros", "use_ros", is_flag=True, help="Run as a ROS 1 node with the real drivers' interfaces.")
+@click.option("--viewer", is_flag=True, help="Show MuJoCo's passive viewer (needs a display).")
+@click.option(
+    "--duration", type=float, default=None, help="Simulated seconds (default: 1 s; endless with --ros/--viewer)."
+)
+@click.option("--realtime/--as-fast", default=True, show_default=True, help="Pace to the wall clock, or run flat out.")
+@click.option("--track", multiple=True, metavar="BODY", help="Report (with --ros: publish) this body's pose.")
+@click.option("--rate", type=float, default=50.0, show_default=True, help="With --ros: /joint_states rate in Hz.")
+@click.option(
+    "--connector",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="With --ros: the connector YAML (default: the variant's config/connector.yaml).",
+)
+@click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
+@_friendly
+def sim_command(
+    variant: str,
+    keyframe: str,
+    use_ros: bool,
+    viewer: bool,
+    duration: float | None,
+    realtime: bool,
+    track: tuple[str, ...],
+    rate: float,
+    connector: Path | None,
+    ros_args: tuple[str, ...],
+) -> None:
+    """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
+
+    Trailing NAME:=VALUE arguments are ROS remappings (roslaunch passes __name:= and __log:=)."""
+    if duration is not None and not duration > 0:
+        raise SvhdescError(f"--duration must be positive, got {duration}")
+    stray = [a for a in ros_args if ":=" not in a]
+    if stray:
+        raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
+    if use_ros:
+        from .ros.node import run_node
+
+        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args))
+        return
+    if ros_args:
+        raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
+    from .sim.cli_run import run_plain
+
+    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo)
 
 
 if __name__ == "__main__":
