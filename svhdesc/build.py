@@ -15,6 +15,7 @@ from .export.urdf import export_urdf
 from .freshness import portable, sha256, tool_versions
 from .hull_source import HullSource
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
+from .ros_outputs import EXECUTABLE, ros_outputs
 from .timings import Timings
 
 
@@ -39,8 +40,12 @@ def write_variant(
         "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
     }
     with timings.stage("export"):
+        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets))
         for name, data in outputs.items():
+            (directory / name).parent.mkdir(parents=True, exist_ok=True)
             (directory / name).write_bytes(data)
+            if name.startswith("scripts/"):
+                (directory / name).chmod(EXECUTABLE)
     packages = {**variant.packages(), **extra_packages}
     inputs = {
         portable(p, packages, variant.config_dir): sha256(p.read_bytes())

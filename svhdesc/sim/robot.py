@@ -5,18 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-# The SVH driver's channel names, in its order: the hand actuators are named <prefix>_<channel>.
-DRIVER_CHANNELS = (
-    "Thumb_Flexion",
-    "Thumb_Opposition",
-    "Index_Finger_Distal",
-    "Index_Finger_Proximal",
-    "Middle_Finger_Distal",
-    "Middle_Finger_Proximal",
-    "Ring_Finger",
-    "Pinky",
-    "Finger_Spread",
-)
+from ..interfaces import DRIVER_CHANNELS
 
 
 @dataclass(frozen=True)

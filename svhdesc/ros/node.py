@@ -1,0 +1,261 @@
+"""The ROS 1 node (``svhdesc sim VARIANT --ros``): the simulation behind the real drivers' interfaces.
+
+Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
+  /clock                                              rosgraph_msgs/Clock, simulated time
+  /joint_states                                       sensor_msgs/JointState, every joint
+  /<prefix>_controller/follow_joint_trajectory        control_msgs/FollowJointTrajectory (9 channels)
+  /<prefix>_controller/command                        trajectory_msgs/JointTrajectory
+  /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command   (6 arm joints)
+  connector topics (config/connector.yaml)            std_msgs/Float64 control / pose / initpose
+  /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
+  <F3D topicName of the URDF>                         geometry_msgs/WrenchStamped, index fingertip
+
+All work on the simulation happens in one thread; ROS callbacks only queue it.
+"""
+
+from __future__ import annotations
+
+import math
+import time as wallclock
+from collections import deque
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from lxml import etree
+
+from ..errors import SvhdescError
+from ..interfaces import ARM_CONTROLLER, NODE_NAME, hand_controller
+from ..sim import Simulation
+from .connector import ConnectorJoint, load_connector
+from .goals import Tolerances
+from .messages import control_msgs
+from .system import import_ros
+
+# Defaults of the controllers' `constraints` (overridable as ROS parameters /<controller>/constraints/...):
+# ur_robot_driver's values for the arm; the hand's are tighter, its joints are short and light.
+DEFAULT_CONSTRAINTS = {
+    "hand": {"goal": 0.01, "trajectory": 0.0, "goal_time": 1.0, "stopped_velocity_tolerance": 0.05},
+    "arm": {"goal": 0.1, "trajectory": 0.2, "goal_time": 0.6, "stopped_velocity_tolerance": 0.05},
+}
+
+
+def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
+    """(topic, body, frame) of each Gazebo F3D plugin in the URDF: the wrench topics Gazebo would publish."""
+    found = []
+    for plugin in etree.parse(str(urdf)).iterfind(".//gazebo/plugin[@filename='libgazebo_ros_f3d.so']"):
+        topic, body, frame = (plugin.findtext(tag) for tag in ("topicName", "bodyName", "frameName"))
+        if topic and body:
+            found.append((topic if topic.startswith("/") else f"/{topic}", body, frame or body))
+    return found
+
+
+def urdf_root(urdf: Path) -> str:
+    tree = etree.parse(str(urdf))
+    children = {j.get("link") for j in tree.iterfind("joint/child")}
+    roots = [link.get("name") for link in tree.iterfind("link") if link.get("name") not in children]
+    return roots[0] if roots else "world"
+
+
+def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -> Tolerances:
+    defaults = DEFAULT_CONSTRAINTS[kind]
+    base = f"/{controller}/constraints"
+    return Tolerances(
+        path={j: float(rospy.get_param(f"{base}/{j}/trajectory", defaults["trajectory"])) for j in joints},
+        goal={j: float(rospy.get_param(f"{base}/{j}/goal", defaults["goal"])) for j in joints},
+        stopped_velocity=float(
+            rospy.get_param(f"{base}/stopped_velocity_tolerance", defaults["stopped_velocity_tolerance"])
+        ),
+        goal_time=float(rospy.get_param(f"{base}/goal_time", defaults["goal_time"])),
+    )
+
+
+class SimNode:
+    def __init__(
+        self,
+        sim: Simulation,
+        connector: Sequence[ConnectorJoint],
+        track: Sequence[str],
+        rate: float,
+        clock_rate: float,
+    ) -> None:
+        rospy = import_ros()
+        from geometry_msgs.msg import PoseStamped, WrenchStamped
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64
+
+        import svhdesc
+
+        from .controller import TrajectoryController
+
+        self._rospy = rospy
+        self.sim = sim
+        self.queue: deque = deque()
+        self._period = 1.0 / rate
+        self._clock_period = 1.0 / clock_rate
+        urdf = svhdesc.get(sim.variant).urdf_path
+        self._frame = urdf_root(urdf)
+        msgs = control_msgs()
+        self._clock = rospy.Publisher("/clock", Clock, queue_size=10)
+        self._joint_states = rospy.Publisher("/joint_states", JointState, queue_size=10)
+        self._Clock, self._JointState = Clock, JointState
+        self._PoseStamped, self._WrenchStamped, self._Float64 = PoseStamped, WrenchStamped, Float64
+        self._tracked = [(body, rospy.Publisher(f"/tracked/{body}", PoseStamped, queue_size=10)) for body in track]
+        self._wrenches = [
+            (body, frame, rospy.Publisher(topic, WrenchStamped, queue_size=10))
+            for topic, body, frame in f3d_sensors(urdf)
+        ]
+        self.controllers: list[TrajectoryController] = []
+        info = sim.info
+        groups = []
+        if info.hand_channels:
+            groups.append((hand_controller(info.hand_prefix or "hand"), info.hand_channels, True, "hand"))
+        if info.arm_joints:
+            groups.append((ARM_CONTROLLER, info.arm_joints, False, "arm"))
+        for name, joints, partial, kind in groups:
+            self.controllers.append(
+                TrajectoryController(
+                    name, joints, sim, msgs, partial, _tolerances(rospy, name, joints, kind), self.queue
+                )
+            )
+        self._pose_topics = []
+        for joint in connector:
+            sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
+            sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
+            self._pose_topics.append((joint.name, rospy.Publisher(joint.pose_topic, Float64, queue_size=10)))
+            rospy.Subscriber(joint.control_topic, Float64, self._queued(self._on_target, joint.name), queue_size=10)
+            rospy.Subscriber(joint.initpose_topic, Float64, self._queued(self._on_initpose, joint.name), queue_size=10)
+        self._joint_index = {j: sim.model.joint(j).qposadr[0] for j in info.joints}
+        for controller in self.controllers:
+            controller.start()
+
+    def _queued(self, handler: Any, joint: str) -> Any:
+        return lambda msg: self.queue.append((handler, (joint, msg)))
+
+    def _on_target(self, item: tuple[str, Any]) -> None:
+        joint, msg = item
+        try:
+            self.sim.set_target(joint, float(msg.data))
+        except (SvhdescError, TypeError, ValueError) as exc:
+            self._rospy.logwarn(f"connector: target for {joint} ignored: {exc}")
+
+    def _on_initpose(self, item: tuple[str, Any]) -> None:
+        joint, msg = item
+        try:
+            self.sim.set_joint_position(joint, float(msg.data))
+        except (SvhdescError, TypeError, ValueError) as exc:
+            self._rospy.logwarn(f"connector: initial pose for {joint} ignored: {exc}")
+
+    def _drain(self) -> None:
+        while self.queue:
+            handler, argument = self.queue.popleft()
+            try:
+                handler(argument)
+            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
+                self._rospy.logerr(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+
+    def publish_state(self) -> None:
+        rospy, sim = self._rospy, self.sim
+        stamp = rospy.Time.from_sec(sim.time)
+        state = sim.joint_state()
+        message = self._JointState(
+            name=list(state.names),
+            position=state.positions.tolist(),
+            velocity=state.velocities.tolist(),
+            effort=state.efforts.tolist(),
+        )
+        message.header.stamp = stamp
+        self._joint_states.publish(message)
+        positions = dict(zip(state.names, state.positions.tolist()))
+        for joint, publisher in self._pose_topics:
+            publisher.publish(self._Float64(positions[joint]))
+        for body, publisher in self._tracked:
+            position, quaternion = sim.body_pose(body)
+            pose = self._PoseStamped()
+            pose.header.stamp, pose.header.frame_id = stamp, self._frame
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position.tolist()
+            o = pose.pose.orientation
+            o.w, o.x, o.y, o.z = quaternion.tolist()
+            publisher.publish(pose)
+        for body, frame, publisher in self._wrenches:
+            force, torque = sim.contact_wrench(body)
+            wrench = self._WrenchStamped()
+            wrench.header.stamp, wrench.header.frame_id = stamp, frame
+            wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = force.tolist()
+            wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque.tolist()
+            publisher.publish(wrench)
+
+    def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
+        """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
+        rospy, sim = self._rospy, self.sim
+        chunk = max(1, round(self._clock_period / sim.timestep))
+        begin_wall, begin_sim = wallclock.perf_counter(), sim.time
+        next_state = sim.time
+        self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
+        while not rospy.is_shutdown() and sim.time - begin_sim < duration - 0.5 * sim.timestep:
+            self._drain()
+            sim.step(chunk)
+            self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
+            for controller in self.controllers:
+                controller.update()
+            if sim.time >= next_state - 0.5 * sim.timestep:
+                self.publish_state()
+                next_state += self._period
+            if viewer is not None:
+                viewer.sync()
+                if not viewer.running:
+                    break
+            if realtime:
+                ahead = (sim.time - begin_sim) - (wallclock.perf_counter() - begin_wall)
+                if ahead > 0:
+                    wallclock.sleep(ahead)
+        elapsed = wallclock.perf_counter() - begin_wall
+        return (sim.time - begin_sim) / elapsed if elapsed > 0 else math.inf
+
+
+def default_connector(variant: str) -> Path:
+    import svhdesc
+
+    return svhdesc.get(variant).directory / "config" / "connector.yaml"
+
+
+def run_node(
+    variant: str,
+    keyframe: str | None,
+    viewer: bool,
+    duration: float | None,
+    realtime: bool,
+    track: Sequence[str],
+    rate: float,
+    connector: Path | None,
+    ros_args: list[str],
+) -> None:
+    """``svhdesc sim VARIANT --ros``: serve the simulation to the ROS master in ROS_MASTER_URI."""
+    if not rate > 0:
+        raise SvhdescError(f"--rate must be positive, got {rate}")
+    rospy = import_ros()
+    sim = Simulation(variant, keyframe)
+    for body in track:
+        sim.body_pose(body)
+    path = connector or default_connector(variant)
+    joints = load_connector(path) if path.is_file() or connector is not None else []
+    rospy.init_node(NODE_NAME, argv=["svhdesc", *ros_args], disable_signals=False)
+    clock_rate = float(rospy.get_param("~clock_rate", 100.0))  # Gazebo's pub_clock_frequency default
+    rate = float(rospy.get_param("~rate", rate))
+    if not (clock_rate > 0 and rate > 0):
+        raise SvhdescError(f"~clock_rate and ~rate must be positive, got {clock_rate}, {rate}")
+    node = SimNode(sim, joints, track, rate, clock_rate)
+    window = None
+    if viewer:
+        from ..sim.viewer import Viewer
+
+        window = Viewer(sim.model, sim.data)
+    rospy.loginfo(f"{variant}: simulating ({'real time' if realtime else 'as fast as possible'})")
+    try:
+        factor = node.spin(math.inf if duration is None else duration, realtime, window)
+    finally:
+        if window is not None:
+            window.close()
+    rospy.loginfo(f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time")
+    rospy.signal_shutdown("done")
