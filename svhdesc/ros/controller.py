@@ -10,7 +10,7 @@ position. ROS callbacks only queue work; the simulation thread does it (see node
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,8 +60,10 @@ class TrajectoryController:
         allow_partial: bool,
         defaults: Tolerances,
         queue: deque,
+        send: Callable[[list[tuple[Any, Any]]], None] | None = None,
         feedback_period: float = 0.05,
     ) -> None:
+        """``send`` hands (callable, message) pairs to a publishing thread (default: call at once)."""
         import actionlib
         import rospy
         from trajectory_msgs.msg import JointTrajectory
@@ -75,7 +77,10 @@ class TrajectoryController:
         self.defaults = defaults
         self._queue = queue
         self._active: _Active | None = None
-        self._feedback_period = feedback_period
+        self._feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
+        self._send = send or (lambda batch: [target(message) for target, message in batch])
+        self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
+        self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
         self._next_feedback = 0.0
         ranges = sim.model.actuator_ctrlrange
         self._limits = {j: tuple(float(v) for v in ranges[sim.actuator(j)]) for j in self.joints}
@@ -171,10 +176,8 @@ class TrajectoryController:
         sim = self._sim
         now = sim.time
         desired = sim.desired(active.joints, now)
-        positions = sim.positions()
-        velocities = dict(zip(sim.info.joints, sim.data.qvel[[sim.model.joint(j).dofadr[0] for j in sim.info.joints]]))
-        actual = np.array([positions[j] for j in active.joints])
-        actual_velocity = np.array([velocities[j] for j in active.joints])
+        actual = sim.data.qpos[[self._qpos[j] for j in active.joints]].copy()
+        actual_velocity = sim.data.qvel[[self._qvel[j] for j in active.joints]].copy()
         error = desired.positions - actual
         if now >= self._next_feedback:
             self._feedback(active, desired, actual, actual_velocity)
@@ -231,4 +234,4 @@ class TrajectoryController:
         feedback.error = JointTrajectoryPoint(
             positions=(desired.positions - actual).tolist(), velocities=(desired.velocities - velocity).tolist()
         )
-        active.handle.publish_feedback(feedback)
+        self._send([(active.handle.publish_feedback, feedback)])

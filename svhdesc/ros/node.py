@@ -16,7 +16,9 @@ All work on the simulation happens in one thread; ROS callbacks only queue it.
 from __future__ import annotations
 
 import math
+import threading
 import time as wallclock
+import warnings
 from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
@@ -70,6 +72,59 @@ def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -
     )
 
 
+def _publisher(rospy: Any, topic: str, kind: Any) -> Any:
+    """A synchronous publisher, used only from the Outbox thread: rospy's queued ones hand every
+    message to another thread and yield (time.sleep(0)), which under the GIL costs up to a switch
+    interval per message."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # rospy warns that queue_size=None publishes synchronously
+        return rospy.Publisher(topic, kind, queue_size=None)
+
+
+class Outbox:
+    """Publishes from its own thread: rospy's queued publish yields the thread after every message
+    (time.sleep(0), ~0.1 ms on a busy machine), which would otherwise stall the simulation. When
+    ``limit`` batches wait, the simulation waits too, so what subscribers see lags the physics by a
+    few control periods at most, even when running as fast as possible."""
+
+    def __init__(self, limit: int = 4) -> None:
+        self._batches: deque = deque()
+        self._limit = limit
+        self._ready = threading.Condition()
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="svhdesc-outbox", daemon=True)
+        self._thread.start()
+
+    def send(self, batch: list[tuple[Any, Any]]) -> None:
+        """Queue ``batch``: (publisher or any callable taking one message, message) pairs."""
+        with self._ready:
+            while len(self._batches) >= self._limit and not self._closed:
+                self._ready.wait(0.5)
+            self._batches.append(batch)
+            self._ready.notify_all()
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                while not self._batches and not self._closed:
+                    self._ready.wait()
+                if self._closed and not self._batches:
+                    return
+                batch = self._batches.popleft()
+                self._ready.notify_all()
+            for target, message in batch:
+                try:
+                    (target.publish if hasattr(target, "publish") else target)(message)
+                except Exception:  # noqa: BLE001 - at shutdown rospy refuses; the thread must live on
+                    pass
+
+    def close(self) -> None:
+        with self._ready:
+            self._closed = True
+            self._ready.notify_all()
+        self._thread.join(5.0)
+
+
 class SimNode:
     def __init__(
         self,
@@ -92,19 +147,19 @@ class SimNode:
         self._rospy = rospy
         self.sim = sim
         self.queue: deque = deque()
+        self.outbox = Outbox()
         self._period = 1.0 / rate
         self._clock_period = 1.0 / clock_rate
         urdf = svhdesc.get(sim.variant).urdf_path
         self._frame = urdf_root(urdf)
         msgs = control_msgs()
-        self._clock = rospy.Publisher("/clock", Clock, queue_size=10)
-        self._joint_states = rospy.Publisher("/joint_states", JointState, queue_size=10)
+        self._clock = _publisher(rospy, "/clock", Clock)
+        self._joint_states = _publisher(rospy, "/joint_states", JointState)
         self._Clock, self._JointState = Clock, JointState
         self._PoseStamped, self._WrenchStamped, self._Float64 = PoseStamped, WrenchStamped, Float64
-        self._tracked = [(body, rospy.Publisher(f"/tracked/{body}", PoseStamped, queue_size=10)) for body in track]
+        self._tracked = [(body, _publisher(rospy, f"/tracked/{body}", PoseStamped)) for body in track]
         self._wrenches = [
-            (body, frame, rospy.Publisher(topic, WrenchStamped, queue_size=10))
-            for topic, body, frame in f3d_sensors(urdf)
+            (body, frame, _publisher(rospy, topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
         ]
         self.controllers: list[TrajectoryController] = []
         info = sim.info
@@ -116,14 +171,21 @@ class SimNode:
         for name, joints, partial, kind in groups:
             self.controllers.append(
                 TrajectoryController(
-                    name, joints, sim, msgs, partial, _tolerances(rospy, name, joints, kind), self.queue
+                    name,
+                    joints,
+                    sim,
+                    msgs,
+                    partial,
+                    _tolerances(rospy, name, joints, kind),
+                    self.queue,
+                    self.outbox.send,
                 )
             )
         self._pose_topics = []
         for joint in connector:
             sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
             sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
-            self._pose_topics.append((joint.name, rospy.Publisher(joint.pose_topic, Float64, queue_size=10)))
+            self._pose_topics.append((joint.name, _publisher(rospy, joint.pose_topic, Float64)))
             rospy.Subscriber(joint.control_topic, Float64, self._queued(self._on_target, joint.name), queue_size=10)
             rospy.Subscriber(joint.initpose_topic, Float64, self._queued(self._on_initpose, joint.name), queue_size=10)
         self._joint_index = {j: sim.model.joint(j).qposadr[0] for j in info.joints}
@@ -166,10 +228,10 @@ class SimNode:
             effort=state.efforts.tolist(),
         )
         message.header.stamp = stamp
-        self._joint_states.publish(message)
+        batch: list[tuple[Any, Any]] = [(self._joint_states, message)]
         positions = dict(zip(state.names, state.positions.tolist()))
         for joint, publisher in self._pose_topics:
-            publisher.publish(self._Float64(positions[joint]))
+            batch.append((publisher, self._Float64(positions[joint])))
         for body, publisher in self._tracked:
             position, quaternion = sim.body_pose(body)
             pose = self._PoseStamped()
@@ -177,14 +239,15 @@ class SimNode:
             pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position.tolist()
             o = pose.pose.orientation
             o.w, o.x, o.y, o.z = quaternion.tolist()
-            publisher.publish(pose)
+            batch.append((publisher, pose))
         for body, frame, publisher in self._wrenches:
             force, torque = sim.contact_wrench(body)
             wrench = self._WrenchStamped()
             wrench.header.stamp, wrench.header.frame_id = stamp, frame
             wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = force.tolist()
             wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque.tolist()
-            publisher.publish(wrench)
+            batch.append((publisher, wrench))
+        self.outbox.send(batch)
 
     def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
         """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
@@ -196,7 +259,7 @@ class SimNode:
         while not rospy.is_shutdown() and sim.time - begin_sim < duration - 0.5 * sim.timestep:
             self._drain()
             sim.step(chunk)
-            self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
+            self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
             for controller in self.controllers:
                 controller.update()
             if sim.time >= next_state - 0.5 * sim.timestep:
@@ -234,6 +297,8 @@ def run_node(
     """``svhdesc sim VARIANT --ros``: serve the simulation to the ROS master in ROS_MASTER_URI."""
     if not rate > 0:
         raise SvhdescError(f"--rate must be positive, got {rate}")
+    # rospy leaves sockets to the garbage collector at shutdown: not the user's concern.
+    warnings.filterwarnings("ignore", category=ResourceWarning)
     rospy = import_ros()
     sim = Simulation(variant, keyframe)
     for body in track:
@@ -255,6 +320,7 @@ def run_node(
     try:
         factor = node.spin(math.inf if duration is None else duration, realtime, window)
     finally:
+        node.outbox.close()
         if window is not None:
             window.close()
     rospy.loginfo(f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time")
