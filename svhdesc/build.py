@@ -40,7 +40,7 @@ def write_variant(
         "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
     }
     with timings.stage("export"):
-        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets))
+        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets, variant.settings))
         for name, data in outputs.items():
             (directory / name).parent.mkdir(parents=True, exist_ok=True)
             (directory / name).write_bytes(data)

@@ -36,3 +36,12 @@ def connector_topics(joint: str) -> dict[str, str]:
         "pose_topic": f"{CONNECTOR_ROOT}/{joint}/pose",
         "initpose_topic": f"{CONNECTOR_ROOT}/{joint}/initpose",
     }
+
+
+# The controllers' default `constraints` (JointTrajectoryController parameters): ur_robot_driver's
+# values for the arm; tighter goals for the hand, whose joints are short and light. The node uses
+# them unless /<controller>/constraints/... are set; ros_controllers.yaml carries the same values.
+CONSTRAINTS = {
+    "hand": {"goal": 0.01, "trajectory": 0.0, "goal_time": 1.0, "stopped_velocity_tolerance": 0.05},
+    "arm": {"goal": 0.1, "trajectory": 0.2, "goal_time": 0.6, "stopped_velocity_tolerance": 0.05},
+}

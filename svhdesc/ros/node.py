@@ -27,19 +27,12 @@ from typing import Any
 from lxml import etree
 
 from ..errors import SvhdescError
-from ..interfaces import ARM_CONTROLLER, NODE_NAME, hand_controller
+from ..interfaces import ARM_CONTROLLER, CONSTRAINTS, NODE_NAME, hand_controller
 from ..sim import Simulation
 from .connector import ConnectorJoint, load_connector
 from .goals import Tolerances
 from .messages import control_msgs
 from .system import import_ros
-
-# Defaults of the controllers' `constraints` (overridable as ROS parameters /<controller>/constraints/...):
-# ur_robot_driver's values for the arm; the hand's are tighter, its joints are short and light.
-DEFAULT_CONSTRAINTS = {
-    "hand": {"goal": 0.01, "trajectory": 0.0, "goal_time": 1.0, "stopped_velocity_tolerance": 0.05},
-    "arm": {"goal": 0.1, "trajectory": 0.2, "goal_time": 0.6, "stopped_velocity_tolerance": 0.05},
-}
 
 
 def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
@@ -60,7 +53,7 @@ def urdf_root(urdf: Path) -> str:
 
 
 def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -> Tolerances:
-    defaults = DEFAULT_CONSTRAINTS[kind]
+    defaults = CONSTRAINTS[kind]
     base = f"/{controller}/constraints"
     return Tolerances(
         path={j: float(rospy.get_param(f"{base}/{j}/trajectory", defaults["trajectory"])) for j in joints},
