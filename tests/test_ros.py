@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -347,3 +348,21 @@ def test_cli_refuses_bad_connector_without_traceback(tmp_path: Path) -> None:
         result = run_cli("sim", VARIANT, "--ros", "--connector", str(path))
         assert result.returncode == 2 and result.stderr.startswith("error:") and culprit in result.stderr
         assert "Traceback" not in result.stderr
+
+
+def test_missing_ros_names_the_apt_packages() -> None:
+    """Run where the venv cannot see Debian's dist-packages (pointed elsewhere): one clear error."""
+    code = (
+        "import sys\n"
+        "import svhdesc.ros.system as system\n"
+        "system.DIST_PACKAGES = '/nonexistent'\n"
+        "sys.path = [p for p in sys.path if 'dist-packages' not in p]\n"
+        "try:\n"
+        "    system.import_ros()\n"
+        "except system.SvhdescError as exc:\n"
+        "    print(exc)\n"
+        "    assert sys.path[-1] == '/nonexistent'\n"  # appended, never ahead of the venv
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert "apt-get install" in result.stdout and "python3-rospy" in result.stdout

@@ -18,6 +18,16 @@ HAND_GROUP = "hand"
 BOTH_GROUP = "arm_hand"  # the thesis planned arm and hand as one group (with BioIK)
 ARM_BASE, ARM_TIP = "base_link", "tool0"
 STATE_RATE = 50
+REQUEST_ADAPTERS = tuple(
+    f"default_planner_request_adapters/{name}"
+    for name in (
+        "AddTimeOptimalParameterization",
+        "FixWorkspaceBounds",
+        "FixStartStateBounds",
+        "FixStartStateCollision",
+        "FixStartStatePathConstraints",
+    )
+)
 
 
 def hand_prefix(robot: Robot) -> str:
@@ -158,7 +168,7 @@ def export_moveit_launch(robot: Robot) -> bytes:
     """Loads the MoveIt parameters where move_group looks for them (run beside sim.launch)."""
     root = etree.Element("launch")
     root.append(etree.Comment(f" {GENERATED} "))
-    root.append(etree.Comment(" then: roslaunch moveit_ros_move_group move_group.launch, or your own "))
+    root.append(etree.Comment(" then: rosrun moveit_ros_move_group move_group (or your own move_group launch) "))
     package = f"$(find {robot.name})"
     sub(root, "param", name="robot_description_semantic", textfile=f"{package}/config/{robot.name}.srdf")
     planning = sub(root, "group", ns="robot_description_planning")
@@ -168,4 +178,8 @@ def export_moveit_launch(robot: Robot) -> bytes:
     move_group = sub(root, "group", ns="move_group")
     sub(move_group, "rosparam", command="load", file=f"{package}/config/moveit_controllers.yaml")
     sub(move_group, "param", name="allow_trajectory_execution", value="true")
+    # move_group's planning pipeline, as the Setup Assistant configures it (OMPL with its default planners).
+    sub(move_group, "param", name="planning_plugin", value="ompl_interface/OMPLPlanner")
+    sub(move_group, "param", name="request_adapters", value=" ".join(REQUEST_ADAPTERS))
+    sub(move_group, "param", name="start_state_max_bounds_error", value="0.1")
     return serialise(root)
