@@ -366,3 +366,33 @@ def test_missing_ros_names_the_apt_packages() -> None:
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
     assert "apt-get install" in result.stdout and "python3-rospy" in result.stdout
+
+
+def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
+    """svh_left beside the running arm: its names under /left, its clock remapped away from /clock."""
+    from actionlib_msgs.msg import GoalStatus
+    from sensor_msgs.msg import JointState
+
+    rospy = ros["rospy"]
+    node = subprocess.Popen(
+        [svhdesc_executable(), "sim", "svh_left", "--ros", "--realtime", "--duration", "30"]
+        + ["__ns:=/left", "__name:=left_sim", "/clock:=/left/clock"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        states = Latest(rospy, "/left/joint_states", JointState)
+        names = wait_for(lambda: states.message, 60, "/left/joint_states").name
+        assert len(names) == 20 and all(n.startswith("left_hand_") for n in names)
+        import actionlib
+
+        client = actionlib.SimpleActionClient(
+            "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
+        )
+        assert client.wait_for_server(rospy.Duration(60))
+        client.send_goal(_goal(ros, ["left_hand_Pinky"], [[0.5]], [0.5]))
+        wait_for(lambda: client.get_state() == GoalStatus.SUCCEEDED, 30, "the left hand's goal")
+        message = states.fresh()
+        assert dict(zip(message.name, message.position))["left_hand_Pinky"] == pytest.approx(0.5, abs=0.01)
+    finally:
+        stop(node)

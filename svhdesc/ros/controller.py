@@ -85,14 +85,14 @@ class TrajectoryController:
         ranges = sim.model.actuator_ctrlrange
         self._limits = {j: tuple(float(v) for v in ranges[sim.actuator(j)]) for j in self.joints}
         self._server = actionlib.ActionServer(
-            f"/{name}/{ACTION}",
+            f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
             msgs.FollowJointTrajectoryAction,
             lambda handle: queue.append((self.on_goal, handle)),
             lambda handle: queue.append((self.on_cancel, handle)),
             auto_start=False,
         )
         self._command = rospy.Subscriber(
-            f"/{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=10
+            f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=10
         )
 
     def start(self) -> None:

@@ -10,7 +10,8 @@ Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
   /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
   <F3D topicName of the URDF>                         geometry_msgs/WrenchStamped, index fingertip
 
-All work on the simulation happens in one thread; ROS callbacks only queue it.
+All names but /clock and the connector's are relative: started in a namespace (``__ns:=left``),
+the node serves there. All work on the simulation happens in one thread; ROS callbacks only queue it.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
     for plugin in etree.parse(str(urdf)).iterfind(".//gazebo/plugin[@filename='libgazebo_ros_f3d.so']"):
         topic, body, frame = (plugin.findtext(tag) for tag in ("topicName", "bodyName", "frameName"))
         if topic and body:
-            found.append((topic if topic.startswith("/") else f"/{topic}", body, frame or body))
+            found.append((topic, body, frame or body))  # relative, as Gazebo resolves it in the robot namespace
     return found
 
 
@@ -54,7 +55,7 @@ def urdf_root(urdf: Path) -> str:
 
 def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -> Tolerances:
     defaults = CONSTRAINTS[kind]
-    base = f"/{controller}/constraints"
+    base = f"{controller}/constraints"
     return Tolerances(
         path={j: float(rospy.get_param(f"{base}/{j}/trajectory", defaults["trajectory"])) for j in joints},
         goal={j: float(rospy.get_param(f"{base}/{j}/goal", defaults["goal"])) for j in joints},
@@ -147,10 +148,10 @@ class SimNode:
         self._frame = urdf_root(urdf)
         msgs = control_msgs()
         self._clock = _publisher(rospy, "/clock", Clock)
-        self._joint_states = _publisher(rospy, "/joint_states", JointState)
+        self._joint_states = _publisher(rospy, "joint_states", JointState)
         self._Clock, self._JointState = Clock, JointState
         self._PoseStamped, self._WrenchStamped, self._Float64 = PoseStamped, WrenchStamped, Float64
-        self._tracked = [(body, _publisher(rospy, f"/tracked/{body}", PoseStamped)) for body in track]
+        self._tracked = [(body, _publisher(rospy, f"tracked/{body}", PoseStamped)) for body in track]
         self._wrenches = [
             (body, frame, _publisher(rospy, topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
         ]
@@ -298,17 +299,17 @@ def run_node(
         sim.body_pose(body)
     path = connector or default_connector(variant)
     joints = load_connector(path) if path.is_file() or connector is not None else []
+    window = None
+    if viewer:
+        from ..sim.viewer import Viewer
+
+        window = Viewer(sim.model, sim.data)
     rospy.init_node(NODE_NAME, argv=["svhdesc", *ros_args], disable_signals=False)
     clock_rate = float(rospy.get_param("~clock_rate", 100.0))  # Gazebo's pub_clock_frequency default
     rate = float(rospy.get_param("~rate", rate))
     if not (clock_rate > 0 and rate > 0):
         raise SvhdescError(f"~clock_rate and ~rate must be positive, got {clock_rate}, {rate}")
     node = SimNode(sim, joints, track, rate, clock_rate)
-    window = None
-    if viewer:
-        from ..sim.viewer import Viewer
-
-        window = Viewer(sim.model, sim.data)
     rospy.loginfo(f"{variant}: simulating ({'real time' if realtime else 'as fast as possible'})")
     try:
         factor = node.spin(math.inf if duration is None else duration, realtime, window)
