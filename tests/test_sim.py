@@ -3,6 +3,13 @@
 from __future__ import annotations
 
 import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -149,3 +156,60 @@ def test_cli_runs_and_refuses_bad_input() -> None:
         result = run_cli("sim", "svh_left", "--as-fast", *args)
         assert result.returncode == 2 and result.stderr.startswith("error:") and culprit in result.stderr
         assert "Traceback" not in result.stderr
+
+
+def test_realtime_run_keeps_to_the_wall_clock() -> None:
+    sim = Simulation("svh_right", "home")
+    start = time.perf_counter()
+    factor = sim.run(0.3, realtime=True)
+    assert time.perf_counter() - start >= 0.29
+    assert sim.time == pytest.approx(0.3, abs=sim.timestep)
+    assert factor <= 1.05
+
+
+@pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run (package xvfb) is not installed")
+def test_passive_viewer_under_xvfb() -> None:
+    result = subprocess.run(
+        ["xvfb-run", "-a", str(Path(sys.executable).with_name("svhdesc")), "sim", "svh_right", "--viewer"]
+        + ["--duration", "0.3"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "LIBGL_ALWAYS_SOFTWARE": "1"},
+    )
+    assert result.returncode == 0, result.stderr
+    assert "svh_right: simulated 0.300 s" in result.stdout
+
+
+@pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
+def test_connector_file_matches_the_model(variant: str) -> None:
+    """One entry per actuated joint, each topic its own (the thesis' file misspelt one), the servo's gains."""
+    import svhdesc
+    from svhdesc.ros.connector import load_connector
+
+    joints = load_connector(svhdesc.get(variant).directory / "config" / "connector.yaml")
+    sim = Simulation(variant)
+    assert [j.name for j in joints] == list(sim.info.actuators)
+    topics = [t for j in joints for t in (j.control_topic, j.pose_topic, j.initpose_topic)]
+    assert len(set(topics)) == len(topics)
+    for joint in joints:
+        assert all(joint.name in t for t in (joint.control_topic, joint.pose_topic, joint.initpose_topic))
+        assert (joint.p_gain, joint.d_gain) == pytest.approx(sim.gains(joint.name))
+
+
+def test_bad_connector_files_name_the_culprit(tmp_path: Path) -> None:
+    from svhdesc.ros.connector import load_connector
+
+    path = tmp_path / "connector.yaml"
+    for text, culprit in (
+        ("joints: 3\n", "'joints:' list"),
+        ("joints:\n- {name: a}\n", "joints[0]: missing"),
+        (
+            "joints:\n- {name: a, control_topic: c, pose_topic: p, initpose_topic: i, p_gain: .nan, d_gain: 1}\n",
+            "p_gain",
+        ),
+        ("joints: [\n", "not YAML"),
+    ):
+        path.write_text(text)
+        with pytest.raises(SvhdescError, match=re.escape(culprit)):
+            load_connector(path)
