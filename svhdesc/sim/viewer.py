@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import threading
 import time
 from typing import Any
 
@@ -21,7 +22,9 @@ class Viewer:
             raise SvhdescError("--viewer needs a display (DISPLAY or WAYLAND_DISPLAY is not set)")
         import mujoco.viewer
 
+        before = set(threading.enumerate())
         self._handle = mujoco.viewer.launch_passive(model, data)
+        self._threads = set(threading.enumerate()) - before  # the viewer's own (daemon) thread
         self._period = 1.0 / fps
         self._last = 0.0
 
@@ -36,4 +39,7 @@ class Viewer:
             self._last = now
 
     def close(self) -> None:
+        # Join the viewer thread: exiting while it still tears its window down can crash.
         self._handle.close()
+        for thread in self._threads:
+            thread.join(5.0)
