@@ -337,7 +337,9 @@ def test_node_survived_and_logged_reasons(ros: dict[str, Any]) -> None:
     publisher = ros["rospy"].Publisher("/mujoco/right_hand_Pinky/control", Float64, queue_size=1)
     wait_for(lambda: publisher.get_num_connections() and log.subscriber.get_num_connections(), 20, "connections")
     publisher.publish(Float64(math.inf))
-    wait_for(lambda: any("not finite" in m.msg and m.level >= Log.WARN for m in log.all), 20, "a logged reason")
+    publisher.publish(Float64(5.0))  # beyond the pinky's range
+    wait_for(lambda: any("inf is not finite" in m.msg and m.level >= Log.WARN for m in log.all), 20, "a reason")
+    wait_for(lambda: any("5.0 is not finite or outside" in m.msg for m in log.all), 20, "the range reason")
     assert np.all(np.isfinite(list(_positions(ros).values())))
 
 

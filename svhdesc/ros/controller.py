@@ -82,8 +82,7 @@ class TrajectoryController:
         self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
         self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
         self._next_feedback = 0.0
-        ranges = sim.model.actuator_ctrlrange
-        self._limits = {j: tuple(float(v) for v in ranges[sim.actuator(j)]) for j in self.joints}
+        self._limits = {j: sim.limits(j) for j in self.joints}
         self._server = actionlib.ActionServer(
             f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
             msgs.FollowJointTrajectoryAction,

@@ -182,24 +182,31 @@ class SimNode:
             self._pose_topics.append((joint.name, _publisher(rospy, joint.pose_topic, Float64)))
             rospy.Subscriber(joint.control_topic, Float64, self._queued(self._on_target, joint.name), queue_size=10)
             rospy.Subscriber(joint.initpose_topic, Float64, self._queued(self._on_initpose, joint.name), queue_size=10)
-        self._joint_index = {j: sim.model.joint(j).qposadr[0] for j in info.joints}
         for controller in self.controllers:
             controller.start()
 
     def _queued(self, handler: Any, joint: str) -> Any:
         return lambda msg: self.queue.append((handler, (joint, msg)))
 
+    def _checked(self, joint: str, msg: Any) -> float:
+        """The message's value, if finite and within the joint's range (the servo would clamp it)."""
+        value = float(msg.data)
+        low, high = self.sim.limits(joint)
+        if not math.isfinite(value) or not low <= value <= high:
+            raise SvhdescError(f"{value} is not finite or outside [{low}, {high}]")
+        return value
+
     def _on_target(self, item: tuple[str, Any]) -> None:
         joint, msg = item
         try:
-            self.sim.set_target(joint, float(msg.data))
+            self.sim.set_target(joint, self._checked(joint, msg))
         except (SvhdescError, TypeError, ValueError) as exc:
             self._rospy.logwarn(f"connector: target for {joint} ignored: {exc}")
 
     def _on_initpose(self, item: tuple[str, Any]) -> None:
         joint, msg = item
         try:
-            self.sim.set_joint_position(joint, float(msg.data))
+            self.sim.set_joint_position(joint, self._checked(joint, msg))
         except (SvhdescError, TypeError, ValueError) as exc:
             self._rospy.logwarn(f"connector: initial pose for {joint} ignored: {exc}")
 

@@ -115,6 +115,11 @@ class Simulation:
             return self._act_index[prefixed]
         raise SvhdescError(f"{name!r} is not an actuated joint of {self.variant}")
 
+    def limits(self, name: str) -> tuple[float, float]:
+        """The commandable range of actuated joint ``name`` (its servo's ctrlrange)."""
+        low, high = self._ctrlrange[self.actuator(name)]
+        return float(low), float(high)
+
     @property
     def time(self) -> float:
         return float(self.data.time)
