@@ -146,10 +146,14 @@ class TrajectoryController:
         self._next_feedback = self._sim.time
 
     def on_cancel(self, handle: Any) -> None:
+        from actionlib_msgs.msg import GoalStatus
+
         if self._active is not None and self._active.handle.get_goal_id().id == handle.get_goal_id().id:
             self._sim.hold(self._active.joints)
             self._active = None
-        handle.set_canceled(self._result(codes.SUCCESSFUL, "canceled"), "canceled")
+        cancelable = (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.RECALLING, GoalStatus.PREEMPTING)
+        if handle.get_goal_status().status in cancelable:  # a finished goal stays as it ended
+            handle.set_canceled(self._result(codes.SUCCESSFUL, "canceled"), "canceled")
 
     def on_command(self, msg: Any) -> None:
         if not msg.points:  # an empty trajectory stops the controller where it is
