@@ -1,4 +1,4 @@
-"""Command line: ``svhdesc build|list|info|validate|render``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render|wireloop``. Bad input: one line on stderr, exit code 2."""
 
 from __future__ import annotations
 
@@ -325,6 +325,58 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
     backend = render(target, out_file, keyframe, dimensions)
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
+
+
+# --- wire-and-loop planner (thesis Appendix A); everything it needs is imported inside the commands ---
+
+
+@main.group("wireloop")
+def wireloop_group() -> None:
+    """The wire-and-loop Q-learning planner of the thesis' Appendix A."""
+
+
+@wireloop_group.command("train")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--episodes", type=int, default=50, show_default=True, help="Training episodes per cycle (N_e).")
+@click.option("--cycles", type=int, default=200, show_default=True, help="Training cycles at most (N_c).")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@_friendly
+def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) -> None:
+    """Train on a wire; write q_table.json, summary.json and distance.png into OUT."""
+    from .wireloop.commands import train_to
+
+    summary = train_to(out, path, seed, episodes, cycles)
+    solved = summary["cycles_to_solve"]
+    click.echo(
+        f"{summary['path']}: {'solved after ' + str(solved) + ' cycles' if solved else 'not solved'} "
+        f"in {summary['wall_s']:.3f} s ({summary['episodes_run']} episodes, {summary['states']} states); "
+        f"wrote {out}"
+    )
+
+
+@wireloop_group.command("solve")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Picture (default: next to the policy).")
+@_friendly
+def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
+    """Run a learned policy greedily along a wire; print the time per action, draw the loop's path."""
+    from .wireloop.commands import solve
+    from .wireloop.plots import plot_run
+
+    result = solve(policy, path)
+    run = result.run
+    out = out or policy.parent / f"solve_{result.env.map.name}.png"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plot_run(result.env, run.cells, out, f"{result.env.map.name}: {run.outcome} in {run.steps} actions")
+    click.echo(
+        f"{result.env.map.name}: {run.outcome} after {run.steps} actions, {run.best}/{len(result.env.path_cells) - 1} "
+        f"pixels along the wire; {result.per_action_s * 1e6:.2f} us per action "
+        f"({result.decide_s * 1e6:.2f} us per decision); wrote {out}"
+    )
+    if run.outcome != "completed":
+        sys.exit(1)
 
 
 if __name__ == "__main__":
