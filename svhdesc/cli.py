@@ -379,5 +379,27 @@ def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
         sys.exit(1)
 
 
+@wireloop_group.command("mujoco")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@click.option("--actions", type=int, default=None, help="Execute only the plan's first ACTIONS moves.")
+@click.option("--no-picture", is_flag=True, help="Skip the rendered picture.")
+@_friendly
+def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_picture: bool) -> None:
+    """Execute the greedy plan with the UR5 + SVH in MuJoCo; write mujoco.json and mujoco.png into OUT."""
+    from .wireloop.commands import run_mujoco
+
+    report = run_mujoco(policy, path, out, actions, picture=not no_picture)
+    click.echo(
+        f"{report['path']}: {report['actions']} actions in {report['sim_s']:.2f} s simulated "
+        f"({report['wall_s']:.1f} s wall); loop touched the wire: {'YES' if report['touched_wire'] else 'no'}; "
+        f"smallest clearance {report['min_clearance_m'] * 1000:.1f} mm; worst tracking error "
+        f"{report['worst_position_error_m'] * 1000:.2f} mm, {report['worst_yaw_error_deg']:.2f} deg; wrote {out}"
+    )
+    if report["touched_wire"] or report["other_wire_contacts"]:
+        sys.exit(1)
+
+
 if __name__ == "__main__":
     main()

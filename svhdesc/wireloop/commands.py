@@ -83,3 +83,24 @@ def decision_time(env: Environment, q: dict[int, list[float]], repeats: int = 5,
             values.index(max(values))
         best = min(best, (time.perf_counter() - began) / n)
     return best
+
+
+def run_mujoco(policy: Path, path: str, out: Path, actions: int | None, picture: bool = True) -> dict[str, object]:
+    """Plan greedily with ``policy`` on ``path`` and execute the plan (or its first ``actions``) in MuJoCo."""
+    from .mujoco_run import execute, plan_targets, render, summary
+
+    q, config = load_policy(policy)
+    env = Environment(load_map(path), config)
+    plan = greedy_run(env, q)
+    poses = plan_targets(env, plan.cells, plan.actions)
+    if actions is not None:
+        if actions < 1:
+            raise SvhdescError("--actions must be at least 1")
+        poses = poses[: actions + 1]
+    run, _ = execute(env.map, poses)
+    report: dict[str, object] = {"path": env.map.name, "plan_outcome": plan.outcome, **summary(run)}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "mujoco.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    if picture:
+        report["backend"] = render(path, run, out / "mujoco.png")
+    return report
