@@ -13,8 +13,9 @@ targets, and the model's position servos follow (the hand's 9 channels hold the 
 bodies get gravity compensation (``gravcomp``), as the UR5's own controller gives it.
 
 Ring and wire geoms collide only with each other and the hand (contype/conaffinity bit 2); every control
-tick also measures the smallest ring-wire distance (``mj_geomDistance``) to report the clearance. Rendering runs in a child process
-(``python -m svhdesc.wireloop.mujoco_run``), since MuJoCo binds its OpenGL backend at import.
+tick also measures the smallest ring-wire distance (``mj_geomDistance``) to report the clearance.
+Rendering runs in a child process (``python -m svhdesc.wireloop.mujoco_run``), since MuJoCo binds its
+OpenGL backend at import.
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ class Scene:
                 name=f"wireloop_trace_{i}",
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                 fromto=np.array(a + b) + np.array([0, 0, 0.004, 0, 0, 0.004]),  # drawn just above the wire
-                size=[0.0012, 0, 0],
+                size=[0.0007, 0, 0],
                 contype=0,
                 conaffinity=0,
                 group=2,
