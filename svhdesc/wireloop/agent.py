@@ -61,8 +61,13 @@ def run_episode(
     gamma: float = 0.5,
     learn: bool = True,
     trace: bool = False,
+    script: list[int] | None = None,
 ) -> Episode:
-    """One episode from ``start``: epsilon-greedy if ``epsilon`` > 0, updating ``q`` with eq. 1 if ``learn``."""
+    """One episode from ``start``: epsilon-greedy if ``epsilon`` > 0, updating ``q`` with eq. 1 if ``learn``.
+
+    ``script``: take these actions instead of choosing (for tests of the rules); the episode ends with
+    outcome ``stalled`` when they run out before a stop.
+    """
     cfg = env.config
     transition, pattern = env.transition, env.pattern
     objective_index, offset = env.objective_index, env.objective_offset
@@ -85,7 +90,11 @@ def run_episode(
     steps = idle = 0
     outcome = STALLED
     while True:
-        if epsilon and rand() < epsilon:
+        if script is not None:
+            if steps == len(script):
+                break
+            action = script[steps]
+        elif epsilon and rand() < epsilon:
             action = int(rand() * 6)
         else:
             action = values.index(max(values))
