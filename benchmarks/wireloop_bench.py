@@ -11,14 +11,16 @@ Then a sweep of the details the paper leaves open, over several seeds.
 from __future__ import annotations
 
 import argparse
+import random
 import statistics
 import time
 from dataclasses import replace
 
+from svhdesc.errors import SvhdescError
 from svhdesc.wireloop.agent import AgentConfig, greedy_run, train
 from svhdesc.wireloop.commands import decision_time
 from svhdesc.wireloop.env import EnvConfig, Environment
-from svhdesc.wireloop.wiremap import load_map
+from svhdesc.wireloop.wiremap import load_map, parse_map
 
 PAPER_TRAIN_S = 22.7
 PAPER_CYCLES = 24
@@ -101,6 +103,46 @@ def sweep(seeds: int) -> None:
         )
 
 
+def random_maps(count: int, seed: int = 7) -> list:
+    """Random wires of 6-10 pixel runs that start and end going right (the training path's start and end)."""
+    rng = random.Random(seed)
+    steps = {"R": (0, 1), "L": (0, -1), "U": (-1, 0), "D": (1, 0)}
+    maps = []
+    while len(maps) < count:
+        runs = ["R"]
+        for _ in range(rng.randint(5, 9)):
+            runs.append(rng.choice("UD" if runs[-1] in "RL" else "LR"))
+        if runs[-1] != "R":
+            continue
+        grid = [["."] * 36 for _ in range(26)]
+        row, col = 3, 2
+        pixels = [(row, col)]
+        for run in runs:
+            for _ in range(rng.randint(6, 10)):
+                row, col = row + steps[run][0], col + steps[run][1]
+                pixels.append((row, col))
+        if len(set(pixels)) != len(pixels) or not all(2 < r < 23 and 1 < c < 33 for r, c in pixels):
+            continue
+        for r, c in pixels:
+            grid[r][c] = "#"
+        grid[3][2], grid[pixels[-1][0]][pixels[-1][1]] = "S", "E"
+        try:
+            maps.append(parse_map("\n".join("".join(line) for line in grid), f"random-{len(maps)}"))
+        except SvhdescError:
+            continue  # parts of the wire too close together
+    return maps
+
+
+def generalisation(seeds: int, count: int) -> None:
+    env = Environment(load_map("training"))
+    others = [Environment(m) for m in random_maps(count)]
+    print(f"\ngeneralisation: {count} random wires (runs of 6-10 px), policies from the training path:")
+    for seed in range(seeds):
+        q = train(env, AgentConfig(), seed).q
+        solved = sum(greedy_run(other, q, trace=False).outcome == "completed" for other in others)
+        print(f"  seed {seed}: {solved}/{count} solved")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
@@ -108,6 +150,7 @@ def main() -> None:
     args = parser.parse_args()
     speed(args.repeats)
     sweep(args.seeds)
+    generalisation(min(args.seeds, 5), 25)
 
 
 if __name__ == "__main__":
