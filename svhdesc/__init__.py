@@ -5,17 +5,35 @@ svhdesc.variants()                      # ['svh_left', 'svh_right', 'ur5_svh_rig
 model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path
 svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
 m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
+model.package_name                      # each variant folder is a ROS package (package://NAME/assets/...)
+model.absolute_urdf_path()              # the URDF with absolute mesh paths, for tools without ROS
+svhdesc.load_pinocchio, svhdesc.load_pybullet, svhdesc.load_drake, svhdesc.load_dart  # see svhdesc.loaders
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from .paths import generated_dir
 
-__all__ = ["Model", "get", "variants", "load_mujoco", "URDF_PATH", "MJCF_PATH", "SCENE_PATH"]
+__all__ = [
+    "Model",
+    "get",
+    "variants",
+    "load_mujoco",
+    "load_pinocchio",
+    "load_pybullet",
+    "load_drake",
+    "load_dart",
+    "URDF_PATH",
+    "MJCF_PATH",
+    "SCENE_PATH",
+]
 DEFAULT_VARIANT = "ur5_svh_right"
 
 
@@ -36,6 +54,46 @@ class Model:
     def scene_path(self) -> Path:
         return self.directory / "scene.xml"
 
+    @property
+    def package_name(self) -> str:
+        """The ROS package this folder is (put its parent on ROS_PACKAGE_PATH)."""
+        from .packages import package_name_of
+
+        return package_name_of(self.directory) or self.name
+
+    def urdf_text(self, uris: Literal["package", "file", "path"] = "package") -> str:
+        """The URDF with mesh URIs as shipped (package://), as file:// URIs, or as plain absolute paths."""
+        text = self.urdf_path.read_text()
+        if uris == "package":
+            return text
+        if uris not in ("file", "path"):
+            raise ValueError(f"uris must be 'package', 'file' or 'path', not {uris!r}")
+        from lxml import etree
+
+        from .packages import local_mesh_path
+
+        tree = etree.fromstring(text.encode())
+        for mesh in tree.iter("mesh"):
+            path = local_mesh_path(mesh.get("filename", ""), self.directory)
+            if path is not None:
+                absolute = path.resolve()
+                mesh.set("filename", absolute.as_uri() if uris == "file" else str(absolute))
+        return etree.tostring(tree, xml_declaration=True, encoding="utf-8").decode()
+
+    def absolute_urdf_path(self, uris: Literal["file", "path"] = "path") -> Path:
+        """A URDF file whose meshes are absolute (for pybullet, pinocchio, Drake, DART without ROS), cached by
+        content under $XDG_CACHE_HOME/svhdesc/urdf; the shipped files stay untouched."""
+        text = self.urdf_text(uris)
+        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "svhdesc" / "urdf"
+        path = cache / f"{self.name}-{digest}.urdf"
+        if not path.is_file():
+            cache.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile("w", dir=cache, delete=False, suffix=".tmp") as handle:
+                handle.write(text)
+            os.replace(handle.name, path)  # atomic: a reader never sees half a file
+        return path
+
 
 def variants() -> list[str]:
     root = generated_dir()
@@ -48,16 +106,15 @@ def get(name: str) -> Model:
     return Model(name, generated_dir() / name)
 
 
-def load_mujoco(name: str = DEFAULT_VARIANT, scene: bool = False) -> Any:
-    """Compile the variant's MJCF (or its scene) into an ``mujoco.MjModel``."""
-    import mujoco
-
-    model = get(name)
-    return mujoco.MjModel.from_xml_path(str(model.scene_path if scene else model.mjcf_path))
+_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart"}
 
 
-def __getattr__(attr: str) -> Path:
-    # Module constants resolved lazily, so importing svhdesc touches no files.
+def __getattr__(attr: str) -> Any:
+    # Loaders and module constants resolved lazily: importing svhdesc touches no files and no engine.
+    if attr in _LOADERS:
+        from . import loaders
+
+        return getattr(loaders, attr)
     constants = {"URDF_PATH": "urdf_path", "MJCF_PATH": "mjcf_path", "SCENE_PATH": "scene_path"}
     if attr in constants:
         return getattr(get(DEFAULT_VARIANT), constants[attr])

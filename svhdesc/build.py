@@ -11,8 +11,9 @@ from pathlib import Path
 
 from .config import Config, Variant
 from .export.mjcf import export_mjcf, export_scene
+from .export.package import export_package_xml, mesh_uri_prefix
 from .export.urdf import export_urdf
-from .freshness import portable, sha256, tool_versions
+from .freshness import portable, sha256, svhdesc_version, tool_versions
 from .hull_source import HullSource
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .timings import Timings
@@ -34,7 +35,8 @@ def write_variant(
     for name, data in sorted(compiled.assets.files.items()):
         (directory / "assets" / name).write_bytes(data)
     outputs = {
-        f"{variant.name}.urdf": export_urdf(robot),
+        "package.xml": export_package_xml(robot, svhdesc_version()),
+        f"{variant.name}.urdf": export_urdf(robot, mesh_uri_prefix(robot)),
         f"{variant.name}.xml": export_mjcf(robot, variant.settings),
         "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
     }

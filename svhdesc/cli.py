@@ -1,4 +1,7 @@
-"""Command line: ``svhdesc build|list|info|validate|render|wireloop``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render|compare|wireloop``.
+
+Bad input: one line on stderr, exit code 2.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +15,8 @@ from typing import Any
 import click
 
 from .errors import SvhdescError
-from .paths import DEFAULT_CONFIG, default_out
+from .extras import COMMAND_EXTRA, is_optional, missing_message, require_extra
+from .paths import default_config, default_out, models_dir
 
 
 def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -26,6 +30,15 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
                 result = func(*args, **kwargs)
             except SvhdescError as exc:
                 click.echo(f"error: {exc}", err=True)
+                sys.exit(2)
+            except ModuleNotFoundError as exc:
+                # An optional dependency this command needs: name the extra, not a traceback.
+                if not is_optional(exc):
+                    raise
+                command = click.get_current_context().command_path.split()
+                name = command[1] if len(command) > 1 else command[0]
+                message = missing_message(exc.name or "", f"'svhdesc {name}'", COMMAND_EXTRA.get(name))
+                click.echo(f"error: {message}", err=True)
                 sys.exit(2)
             finally:
                 for warning in caught:
@@ -56,7 +69,7 @@ def _load(config_path: Path | None, packages: tuple[str, ...]) -> tuple[Any, dic
     from .config import load_config
     from .packages import package_map, parse_package_option
 
-    config = load_config(config_path or DEFAULT_CONFIG)
+    config = load_config(config_path or default_config())
     explicit = dict(parse_package_option(p) for p in packages)
     return config, package_map(explicit)
 
@@ -69,7 +82,12 @@ def main() -> None:
 
 @main.command("build")
 @click.argument("variants", nargs=-1)
-@click.option("--out", type=click.Path(path_type=Path), default=None, help="Output directory (default: generated/).")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Output directory (default: generated/ beside the config's checkout, else beside the config).",
+)
 @config_option
 @package_option
 @click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
@@ -93,7 +111,7 @@ def build_command(
     from .freshness import stale_variants
 
     config, package_dirs = _load(config_path, packages)
-    out = out or default_out()
+    out = out or default_out(config_path)
     selected = config.select(list(variants))
     # Unchanged sources, tools and outputs (by content hash): nothing to build, nothing to import.
     stale = selected if force or rebuild_collisions else stale_variants(selected, out, package_dirs)
@@ -103,6 +121,7 @@ def build_command(
     if not stale:
         return
 
+    require_extra("build", "'svhdesc build'")
     from . import build as builder
     from .decompose import HullCache
     from .hull_source import HullSource, default_cache_dir
@@ -154,13 +173,12 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     from .coupling import coupling_matrix
     from .decompose import HullCache
     from .hull_source import HullSource, default_cache_dir
-    from .paths import generated_dir
     from .pipeline import compile_variant
 
     config, package_dirs = _load(config_path, packages)
     selected = config.select([variant])[0]
     hulls = HullSource(HullCache(default_cache_dir()))
-    hulls.seed_from_outputs([generated_dir() / selected.name])
+    hulls.seed_from_outputs([models_dir() / selected.name])
     robot = compile_variant(selected, package_dirs, hulls).robot
     movable = [j for j in robot.joints if j.movable]
     coupled = [j for j in movable if j.mimic]
@@ -269,7 +287,7 @@ def validate_command(
     Mass bounds come from the configuration declaring the model's variant: --config, else
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
-    from .paths import generated_dir
+    require_extra("validate", "'svhdesc validate'")
     from .validate import Options, built_variants, select_checks, validate_files
     from .validate.report import render_report, write_json
 
@@ -284,7 +302,7 @@ def validate_command(
                 raise SvhdescError(f"{path}: no such file")
         pairs = [(urdf_path, mjcf_path)]
     else:
-        pairs = built_variants(out or generated_dir(), variants)
+        pairs = built_variants(out or models_dir(), variants)
     options = Options(seed=seed, samples=samples, plots=plots)
     reports = []
     for urdf, mjcf in pairs:
@@ -314,13 +332,12 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
     VARIANT is a built variant's name under generated/, or a variant directory or XML file. The
     OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa.
     """
-    from .paths import generated_dir
     from .validate.render import parse_size, render
 
     dimensions = parse_size(size)
     target = Path(variant)
     if not target.exists():
-        target = generated_dir() / variant
+        target = models_dir() / variant
         if not target.is_dir():
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
     backend = render(target, out_file, keyframe, dimensions)
@@ -399,6 +416,94 @@ def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_
     )
     if report["touched_wire"] or report["other_wire_contacts"]:
         sys.exit(1)
+
+
+@main.command("compare")
+@click.argument("variant", default="ur5_svh_right")
+@click.option(
+    "--engines",
+    default="mujoco,dart,bullet,drake",
+    show_default=True,
+    help="Comma-separated engines to run.",
+)
+@click.option(
+    "--inertias",
+    default="physical,0.001,0.01,0.1",
+    show_default=True,
+    help="Finger-link inertia settings: 'physical' or a diagonal inertia in kg m^2 (masses stay physical).",
+)
+@click.option(
+    "--duration",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Simulated seconds per run (default: ramp 1 + settle 2 + record 2 = 5 s; shorter runs scale "
+    "settle and record).",
+)
+@click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the results as JSON.")
+@click.option("--csv", "csv_path", type=click.Path(path_type=Path), default=None, help="Write the results as CSV.")
+@click.option(
+    "--plots", type=click.Path(path_type=Path), default=None, help="Write joint and force plots to this directory."
+)
+@_friendly
+def compare_command(
+    variant: str,
+    engines: str,
+    inertias: str,
+    duration: float | None,
+    json_path: Path | None,
+    csv_path: Path | None,
+    plots: Path | None,
+) -> None:
+    """Thesis chapter 5 on several engines: press the index fingertip on a surface, measure joint MAD.
+
+    Every engine loads the same generated model (MJCF for MuJoCo, URDF for the others) and runs the
+    experiment of `svhdesc validate`'s contact check for each finger-inertia setting. Prints a Markdown
+    table like thesis Tables 5.1/5.2. A missing engine is reported, not fatal.
+    """
+    import svhdesc
+
+    from .compare.runner import ENGINES, inertia_label, run_grid
+    from .extras import require
+
+    # MuJoCo places the surface for every engine; matplotlib draws the plots. Both before any run.
+    require("mujoco", "'svhdesc compare'", "sim")
+    if plots is not None:
+        require("matplotlib", "'svhdesc compare --plots'")
+    if variant not in svhdesc.variants():
+        raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc.variants())}")
+    names = [n.strip() for n in engines.split(",") if n.strip()]
+    unknown = [n for n in names if n not in ENGINES]
+    if unknown or not names:
+        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(ENGINES)}")
+    settings: list[float | None] = []
+    for text in (t.strip() for t in inertias.split(",")):
+        if text == "physical":
+            settings.append(None)
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not value > 0:
+            raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
+        settings.append(value)
+
+    from .compare.report import markdown, plot, plot_overview, write_csv, write_json
+
+    def progress(result: Any) -> None:
+        extra = f" ({result.note})" if result.note else ""
+        click.echo(f"{result.engine} inertia {inertia_label(result.inertia)}: {result.status}{extra}", err=True)
+
+    setup, results = run_grid(variant, names, settings, duration, progress)
+    click.echo(markdown(setup, results, variant))
+    if json_path is not None:
+        write_json(json_path, variant, setup, results, duration)
+    if csv_path is not None:
+        write_csv(csv_path, results)
+    if plots is not None:
+        overview = plot_overview(results, plots / f"{variant}_compare_force.png")
+        for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
+            click.echo(f"wrote {path}", err=True)
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ SECTIONS: dict[str, set[str] | None] = {
     "mass": {"budgets", "links", "inertials"},
     "contact": {"model", "sliding", "torsional", "rolling", "default_sliding"},
     "transmissions": {"interface"},
-    "simulation": {"timestep", "coupling_solref", "coupling_solimp", "noslip_iterations"},
+    "simulation": {"timestep", "coupling_solref", "coupling_solimp", "noslip_iterations", "gravity_compensation"},
     "keyframes": None,
     "collision": None,
     "scene": {"floor_z", "pedestal_radius"},

@@ -28,12 +28,27 @@ def sha256(data: bytes) -> str:
 def code_fingerprint() -> str:
     """Hash of svhdesc's own source: a code change must rebuild even at the same version number.
 
-    The validator is left out: it reads models, it does not make them.
+    Code that reads models and does not make them (the validator, the runtime subpackages, the CLI and the
+    import API) is left out: changing it must not change the models' manifests.
     """
     digest = hashlib.sha256()
-    for path in sorted(p for p in PACKAGE_DIR.rglob("*.py") if "validate" not in p.relative_to(PACKAGE_DIR).parts):
+    for path in sorted(p for p in PACKAGE_DIR.rglob("*.py") if _makes_models(p.relative_to(PACKAGE_DIR))):
         digest.update(path.relative_to(PACKAGE_DIR).as_posix().encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
+
+
+RUNTIME = {"validate", "loaders", "sim", "ros", "compare", "wireloop", "cli.py", "__init__.py", "extras.py", "paths.py"}
+
+
+def _makes_models(relative: Path) -> bool:
+    return relative.parts[0] not in RUNTIME
+
+
+def svhdesc_version() -> str:
+    try:
+        return metadata.version("svhdesc")
+    except metadata.PackageNotFoundError:
+        return "0.0.0"
 
 
 def tool_versions() -> dict[str, str]:

@@ -49,3 +49,35 @@ def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:
     if uri.startswith("file://"):
         return Path(uri[len("file://") :])
     return Path(uri)
+
+
+def package_name_of(directory: Path) -> str | None:
+    """The <name> in ``directory``/package.xml, or None when it is no ROS package."""
+    from lxml import etree
+
+    try:
+        name = etree.parse(str(directory / "package.xml")).findtext("name")
+    except (OSError, etree.XMLSyntaxError):
+        return None
+    return name.strip() if name else None
+
+
+def local_mesh_path(uri: str, base: Path, env: Mapping[str, str] | None = None) -> Path | None:
+    """A mesh URI of a built model as a local file: package://NAME/... of the package at ``base`` (the model's
+    own folder) or on ROS_PACKAGE_PATH, file:// URIs, absolute and relative paths. None if nothing resolves it.
+
+    model://NAME/... (what sdformat makes of package:// URIs; Gazebo resolves it on its resource path, which holds
+    the folder of packages) resolves the same way."""
+    scheme = next((s for s in ("package://", "model://") if uri.startswith(s)), None)
+    if scheme is not None:
+        name, _, rest = uri[len(scheme) :].partition("/")
+        if package_name_of(base) == name:
+            return base / rest
+        root = package_map({}, env=env).get(name)
+        return root / rest if root is not None else None
+    if uri.startswith("file://"):
+        return Path(uri[len("file://") :])
+    if "://" in uri:
+        return None
+    path = Path(uri)
+    return path if path.is_absolute() else base / path

@@ -1,13 +1,16 @@
-"""The import API, from the checkout and from an installed (non-editable) wheel."""
+"""The import API and the CLI from the checkout, from another checkout, and from an installed (non-editable) wheel
+in a virtual environment that inherits nothing from this interpreter."""
 
 from __future__ import annotations
 
+import hashlib
+import shutil
 import subprocess
 import sys
 import venv
 from pathlib import Path
 
-from .support import REPO
+from .support import REPO, VARIANTS
 
 
 def test_import_does_not_load_mujoco() -> None:
@@ -16,7 +19,45 @@ def test_import_does_not_load_mujoco() -> None:
     assert result.stdout.strip() == "False"
 
 
-def test_installed_wheel_ships_the_models(tmp_path: Path) -> None:
+def _cli(*args: str, cwd: Path, python: str = sys.executable) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([python, "-m", "svhdesc.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_build_inside_another_checkout_builds_that_checkout(tmp_path: Path) -> None:
+    clone = tmp_path / "clone"
+    for name in ("config", "xacro", "meshes", "generated", "svhdesc"):
+        shutil.copytree(REPO / name, clone / name, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "pyproject.toml", clone / "pyproject.toml")
+    config = clone / "config" / "svhdesc.yaml"
+    config.write_text(config.read_text().replace("kp: 10.0 ", "kp: 12.5 ", 1))
+    ours = REPO / "generated" / "svh_right" / "svh_right.xml"
+    before = _digest(ours)
+    result = _cli("build", "svh_right", cwd=clone / "meshes")  # anywhere below the checkout's root
+    assert result.returncode == 0, result.stderr
+    assert f"built {clone / 'generated' / 'svh_right'}" in result.stdout
+    assert 'kp="12.5"' in (clone / "generated" / "svh_right" / "svh_right.xml").read_text()
+    assert _digest(ours) == before
+
+
+def test_build_with_a_users_config_writes_beside_it(tmp_path: Path) -> None:
+    config = tmp_path / "mine" / "robot.yaml"
+    config.parent.mkdir()
+    config.write_text(
+        f"extends: {REPO / 'config' / 'svhdesc.yaml'}\n"
+        f"variants:\n  my_hand:\n    xacro: {REPO / 'xacro' / 'svh_hand.urdf.xacro'}\n    args: {{side: right}}\n"
+    )
+    result = _cli("build", "--config", str(config), cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    built = tmp_path / "mine" / "generated" / "my_hand"
+    assert (built / "my_hand.urdf").is_file() and (built / "package.xml").is_file()
+    assert not (REPO / "generated" / "my_hand").exists()
+
+
+def test_installed_wheel_works_anywhere(tmp_path: Path) -> None:
     wheels = tmp_path / "wheels"
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO)],
@@ -24,25 +65,48 @@ def test_installed_wheel_ships_the_models(tmp_path: Path) -> None:
         capture_output=True,
     )
     env_dir = tmp_path / "venv"
-    venv.create(env_dir, with_pip=True, system_site_packages=True)
-    python = env_dir / "bin" / "python"
+    venv.create(env_dir, with_pip=True, system_site_packages=False)
+    python = str(env_dir / "bin" / "python")
     wheel = next(wheels.glob("svhdesc-*.whl"))
-    subprocess.run(
-        [str(python), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall", str(wheel)],
-        check=True,
+    install = subprocess.run(
+        [python, "-m", "pip", "install", "-q", "-c", str(REPO / "constraints.txt"), f"{wheel}[sim,validate]"],
         capture_output=True,
+        text=True,
     )
+    assert install.returncode == 0, install.stderr[-3000:]
+    work = tmp_path / "elsewhere"
+    work.mkdir()
     code = (
         "import svhdesc, mujoco\n"
         "assert 'site-packages' in svhdesc.__file__, svhdesc.__file__\n"
         "print(svhdesc.variants())\n"
         "m = svhdesc.get('ur5_svh_right')\n"
         "assert m.urdf_path.is_file() and m.mjcf_path.is_file() and m.scene_path.is_file()\n"
-        "assert svhdesc.MJCF_PATH == m.mjcf_path\n"
+        "assert svhdesc.MJCF_PATH == m.mjcf_path and m.package_name == 'ur5_svh_right'\n"
+        "assert m.absolute_urdf_path().is_file()\n"
         "model = svhdesc.load_mujoco('svh_left')\n"
         "print(model.nu, model.neq)\n"
         "mujoco.MjModel.from_xml_path(str(svhdesc.get('ur5_svh_right').scene_path))\n"
     )
-    result = subprocess.run([str(python), "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    result = subprocess.run([python, "-c", code], capture_output=True, text=True, cwd=work)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.splitlines() == ["['svh_left', 'svh_right', 'ur5_svh_right']", "9 11"]
+    assert result.stdout.splitlines() == [str(sorted(VARIANTS)), "9 11"]
+
+    listed = _cli("list", cwd=work, python=python)
+    assert listed.returncode == 0, listed.stderr
+    assert [line.split("\t")[0] for line in listed.stdout.splitlines()] == list(VARIANTS)
+    checked = _cli("validate", "svh_left", "--checks", "simulate,mass,yourdfpy,limits", cwd=work, python=python)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    rendered = _cli("render", "svh_left", "--out", str(work / "left.png"), "--size", "64x48", cwd=work, python=python)
+    assert rendered.returncode == 0, rendered.stderr
+    assert (work / "left.png").read_bytes().startswith(b"\x89PNG")
+    # The compiler is an extra of its own; the shipped sources are never an output folder.
+    info = _cli("info", "svh_left", cwd=work, python=python)
+    assert info.returncode == 2 and info.stderr.strip().endswith("pip install 'svhdesc[build]'"), info.stderr
+    where = subprocess.run([python, "-c", "import svhdesc; print(svhdesc.__file__)"], capture_output=True, text=True)
+    site = Path(where.stdout.strip()).parent
+    before = sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts)
+    build = _cli("build", "svh_left", cwd=work, python=python)
+    assert build.returncode == 2, build.stderr
+    assert "error:" in build.stderr and "Traceback" not in build.stderr
+    assert sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts) == before

@@ -12,7 +12,7 @@ from lxml import etree
 
 from ..config import Variant, load_config
 from ..errors import SvhdescError
-from ..paths import DEFAULT_CONFIG, REPO_DIR
+from ..paths import default_config, source_root
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
@@ -188,7 +188,7 @@ def _mjcf_model_name(path: Path) -> str | None:
 def configured_variant(model_name: str, mjcf_path: Path, config_path: Path | None) -> Variant | None:
     """The variant of that name in --config, else in the default config or a config the build manifest
     names (package://svhdesc/config/...). None for a pair no configuration describes."""
-    candidates = [config_path] if config_path else [DEFAULT_CONFIG, *_manifest_configs(mjcf_path.parent)]
+    candidates = [config_path] if config_path else [default_config(), *_manifest_configs(mjcf_path.parent)]
     for candidate in candidates:
         try:
             config = load_config(candidate)
@@ -208,8 +208,8 @@ def _manifest_configs(directory: Path) -> list[Path]:
     paths = []
     for uri in inputs:
         if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
-            path = REPO_DIR / uri.removeprefix("package://svhdesc/")
-            if path.is_file() and path != DEFAULT_CONFIG:
+            path = source_root() / uri.removeprefix("package://svhdesc/")
+            if path.is_file() and path != default_config():
                 paths.append(path)
     return paths
 

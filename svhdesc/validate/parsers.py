@@ -10,6 +10,7 @@ from pathlib import Path
 
 from lxml import etree
 
+from ..packages import local_mesh_path
 from .options import Options
 from .pair import ModelPair
 from .report import Check, not_run, verdict
@@ -32,13 +33,8 @@ def _tail(text: str, lines: int = 3) -> str:
 
 
 def _local_mesh(uri: str, base: Path) -> Path | None:
-    """A mesh URI as a local path (None for package:// and other schemes nobody here can resolve)."""
-    if uri.startswith("file://"):
-        return Path(uri.removeprefix("file://"))
-    if "://" in uri:
-        return None
-    path = Path(uri)
-    return path if path.is_absolute() else base / path
+    """A mesh URI as a local path: the model's own package://, file://, paths (None for other schemes)."""
+    return local_mesh_path(uri, base)
 
 
 def check_urdfdom(pair: ModelPair, options: Options) -> list[Check]:
@@ -153,8 +149,8 @@ def check_sdformat(pair: ModelPair, options: Options) -> list[Check]:
         what = "ign not found" if tool is None else "ign has no 'sdf' subcommand"
         return [not_run("sdformat", f"{what}; install with: {SDFORMAT_INSTALL}", bound, missing_tool=SDFORMAT_INSTALL)]
     base = pair.urdf_path.parent.resolve()
-    # Run beside the URDF: ign keeps relative mesh URIs verbatim (assets/x.stl), so they stay valid
-    # only for an SDF that sits where the URDF does.
+    # ign turns package://NAME/... into model://NAME/..., which Gazebo finds on its resource path (the folder that
+    # holds the package): checked below against the model's own package.
     converted = _run([tool, "sdf", "-p", str(pair.urdf_path.resolve())], base)
     if converted.returncode != 0 or not converted.stdout.strip():
         return [
@@ -190,15 +186,13 @@ def check_sdformat(pair: ModelPair, options: Options) -> list[Check]:
     uris = [u.text.strip() for u in sdf.iter("uri") if u.text]
     unresolved = [u for u in uris if (p := _local_mesh(u, base)) is not None and not p.is_file()]
     if unresolved:
-        problems.append(f"{len(unresolved)} mesh URI(s) do not resolve beside the URDF, e.g. {unresolved[0]}")
+        problems.append(f"{len(unresolved)} mesh URI(s) do not resolve, e.g. {unresolved[0]}")
     links = sum(1 for _ in sdf.iter("link"))
     measured = f"{links} links, {len(sdf_joints)} movable joints"
-    relative = sum(1 for u in uris if "://" not in u and not u.startswith("/"))
-    detail = "; ".join(problems) or (
-        f"valid; {relative} relative mesh URIs kept verbatim (resolve beside the URDF's folder)"
-        if relative
-        else "valid"
-    )
+    unknown = sum(1 for u in uris if _local_mesh(u, base) is None)
+    if unknown:
+        problems.append(f"{unknown} mesh URI(s) in a scheme nothing here resolves")
+    detail = "; ".join(problems) or f"valid; all {len(uris)} mesh URIs resolve"
     return [
         Check(
             "sdformat",

@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 import os
+import struct
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 from typing import Any
 
 from ..errors import SvhdescError
+from ..extras import require
 
 BACKENDS = ("egl", "osmesa")
 INSTALL = "apt-get install libegl1 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
@@ -78,6 +81,7 @@ def available_backends() -> list[str]:
 
 def render(target: Path, out: Path, keyframe: str | None, size: tuple[int, int]) -> str:
     """Render ``target`` (variant directory or XML) to ``out``; returns the GL backend used."""
+    require("mujoco", "'svhdesc render'", "sim")  # before blaming OpenGL for a missing package
     import mujoco
 
     scene = scene_file(target)
@@ -180,17 +184,17 @@ def _child(scene: str, out: str, keyframe: str, size: str) -> int:
 
 
 def _write_png(path: Path, pixels: Any) -> None:
-    try:
-        from PIL import Image
+    """RGB uint8 array -> PNG with zlib alone, so rendering needs nothing beyond mujoco."""
+    height, width, _ = pixels.shape
+    raw = b"".join(b"\x00" + pixels[row].tobytes() for row in range(height))
 
-        Image.fromarray(pixels).save(path)
-    except ImportError:
-        import matplotlib
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
 
-        matplotlib.use("Agg")
-        import matplotlib.image
-
-        matplotlib.image.imsave(path, pixels)
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
+    )
 
 
 if __name__ == "__main__":
