@@ -361,7 +361,10 @@ def wireloop_group() -> None:
 @_friendly
 def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) -> None:
     """Train on a wire; write q_table.json, summary.json and distance.png into OUT."""
+    from .extras import require
     from .wireloop.commands import train_to
+
+    require("matplotlib", "'svhdesc wireloop train'")
 
     summary = train_to(out, path, seed, episodes, cycles)
     solved = summary["cycles_to_solve"]
@@ -379,7 +382,10 @@ def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) 
 @_friendly
 def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
     """Run a learned policy greedily along a wire; print the time per action, draw the loop's path."""
+    from .extras import require
     from .wireloop.commands import solve
+
+    require("matplotlib", "'svhdesc wireloop solve'")
     from .wireloop.plots import plot_run
 
     result = solve(policy, path)
@@ -405,7 +411,10 @@ def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
 @_friendly
 def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_picture: bool) -> None:
     """Execute the greedy plan with the UR5 + SVH in MuJoCo; write mujoco.json and mujoco.png into OUT."""
+    from .extras import require
     from .wireloop.commands import run_mujoco
+
+    require("mujoco", "'svhdesc wireloop mujoco'", "sim")
 
     report = run_mujoco(policy, path, out, actions, picture=not no_picture)
     click.echo(
