@@ -174,7 +174,11 @@ class Environment:
         return self.pattern[cell] | rel << 25 | rotation << 30
 
     def next_objective(self, cell: int, direction: int, objective: int, previous: int) -> int:
-        """The objective update at ``cell`` reached by moving in ``direction``; ``objective`` if none is left."""
+        """The objective update at ``cell`` reached by moving in ``direction``.
+
+        Ties in distance go to the candidate farther from the ``previous`` objective, then to the lower cell.
+        With no candidate left (e.g. arriving backwards at the wire's start) the objective stays where it is.
+        """
         options = self.candidates.get(cell * 4 + direction) or objective_candidates(self, cell, direction)
         if not options:
             return objective
