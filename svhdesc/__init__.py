@@ -7,6 +7,7 @@ svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
 m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
 model.package_name                      # each variant folder is a ROS package (package://NAME/assets/...)
 model.absolute_urdf_path()              # the URDF with absolute mesh paths, for tools without ROS
+svhdesc.load_pinocchio, svhdesc.load_pybullet, svhdesc.load_drake, svhdesc.load_dart  # see svhdesc.loaders
 """
 
 from __future__ import annotations
@@ -20,7 +21,19 @@ from typing import Any, Literal
 
 from .paths import generated_dir
 
-__all__ = ["Model", "get", "variants", "load_mujoco", "URDF_PATH", "MJCF_PATH", "SCENE_PATH"]
+__all__ = [
+    "Model",
+    "get",
+    "variants",
+    "load_mujoco",
+    "load_pinocchio",
+    "load_pybullet",
+    "load_drake",
+    "load_dart",
+    "URDF_PATH",
+    "MJCF_PATH",
+    "SCENE_PATH",
+]
 DEFAULT_VARIANT = "ur5_svh_right"
 
 
@@ -93,16 +106,15 @@ def get(name: str) -> Model:
     return Model(name, generated_dir() / name)
 
 
-def load_mujoco(name: str = DEFAULT_VARIANT, scene: bool = False) -> Any:
-    """Compile the variant's MJCF (or its scene) into an ``mujoco.MjModel``."""
-    import mujoco
-
-    model = get(name)
-    return mujoco.MjModel.from_xml_path(str(model.scene_path if scene else model.mjcf_path))
+_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart"}
 
 
-def __getattr__(attr: str) -> Path:
-    # Module constants resolved lazily, so importing svhdesc touches no files.
+def __getattr__(attr: str) -> Any:
+    # Loaders and module constants resolved lazily: importing svhdesc touches no files and no engine.
+    if attr in _LOADERS:
+        from . import loaders
+
+        return getattr(loaders, attr)
     constants = {"URDF_PATH": "urdf_path", "MJCF_PATH": "mjcf_path", "SCENE_PATH": "scene_path"}
     if attr in constants:
         return getattr(get(DEFAULT_VARIANT), constants[attr])

@@ -1,4 +1,7 @@
-"""Command line: ``svhdesc build|list|info|validate|render|sim``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render|compare|wireloop|sim``.
+
+Bad input: one line on stderr, exit code 2.
+"""
 
 from __future__ import annotations
 
@@ -339,6 +342,177 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
     backend = render(target, out_file, keyframe, dimensions)
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
+
+
+# --- wire-and-loop planner (thesis Appendix A); everything it needs is imported inside the commands ---
+
+
+@main.group("wireloop")
+def wireloop_group() -> None:
+    """The wire-and-loop Q-learning planner of the thesis' Appendix A."""
+
+
+@wireloop_group.command("train")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--episodes", type=int, default=50, show_default=True, help="Training episodes per cycle (N_e).")
+@click.option("--cycles", type=int, default=200, show_default=True, help="Training cycles at most (N_c).")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@_friendly
+def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) -> None:
+    """Train on a wire; write q_table.json, summary.json and distance.png into OUT."""
+    from .extras import require
+    from .wireloop.commands import train_to
+
+    require("matplotlib", "'svhdesc wireloop train'")
+
+    summary = train_to(out, path, seed, episodes, cycles)
+    solved = summary["cycles_to_solve"]
+    click.echo(
+        f"{summary['path']}: {'solved after ' + str(solved) + ' cycles' if solved else 'not solved'} "
+        f"in {summary['wall_s']:.3f} s ({summary['episodes_run']} episodes, {summary['states']} states); "
+        f"wrote {out}"
+    )
+
+
+@wireloop_group.command("solve")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Picture (default: next to the policy).")
+@_friendly
+def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
+    """Run a learned policy greedily along a wire; print the time per action, draw the loop's path."""
+    from .extras import require
+    from .wireloop.commands import solve
+
+    require("matplotlib", "'svhdesc wireloop solve'")
+    from .wireloop.plots import plot_run
+
+    result = solve(policy, path)
+    run = result.run
+    out = out or policy.parent / f"solve_{result.env.map.name}.png"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plot_run(result.env, run.cells, out, f"{result.env.map.name}: {run.outcome} in {run.steps} actions")
+    click.echo(
+        f"{result.env.map.name}: {run.outcome} after {run.steps} actions, {run.best}/{len(result.env.path_cells) - 1} "
+        f"pixels along the wire; {result.per_action_s * 1e6:.2f} us per action "
+        f"({result.decide_s * 1e6:.2f} us per decision); wrote {out}"
+    )
+    if run.outcome != "completed":
+        sys.exit(1)
+
+
+@wireloop_group.command("mujoco")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@click.option("--actions", type=int, default=None, help="Execute only the plan's first ACTIONS moves.")
+@click.option("--no-picture", is_flag=True, help="Skip the rendered picture.")
+@_friendly
+def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_picture: bool) -> None:
+    """Execute the greedy plan with the UR5 + SVH in MuJoCo; write mujoco.json and mujoco.png into OUT."""
+    from .extras import require
+    from .wireloop.commands import run_mujoco
+
+    require("mujoco", "'svhdesc wireloop mujoco'", "sim")
+
+    report = run_mujoco(policy, path, out, actions, picture=not no_picture)
+    click.echo(
+        f"{report['path']}: {report['actions']} actions in {report['sim_s']:.2f} s simulated "
+        f"({report['wall_s']:.1f} s wall); loop touched the wire: {'YES' if report['touched_wire'] else 'no'}; "
+        f"smallest clearance {report['min_clearance_m'] * 1000:.1f} mm; worst tracking error "
+        f"{report['worst_position_error_m'] * 1000:.2f} mm, {report['worst_yaw_error_deg']:.2f} deg; wrote {out}"
+    )
+    if report["touched_wire"] or report["other_wire_contacts"]:
+        sys.exit(1)
+
+
+@main.command("compare")
+@click.argument("variant", default="ur5_svh_right")
+@click.option(
+    "--engines",
+    default="mujoco,dart,bullet,drake",
+    show_default=True,
+    help="Comma-separated engines to run.",
+)
+@click.option(
+    "--inertias",
+    default="physical,0.001,0.01,0.1",
+    show_default=True,
+    help="Finger-link inertia settings: 'physical' or a diagonal inertia in kg m^2 (masses stay physical).",
+)
+@click.option(
+    "--duration",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Simulated seconds per run (default: ramp 1 + settle 2 + record 2 = 5 s; shorter runs scale "
+    "settle and record).",
+)
+@click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the results as JSON.")
+@click.option("--csv", "csv_path", type=click.Path(path_type=Path), default=None, help="Write the results as CSV.")
+@click.option(
+    "--plots", type=click.Path(path_type=Path), default=None, help="Write joint and force plots to this directory."
+)
+@_friendly
+def compare_command(
+    variant: str,
+    engines: str,
+    inertias: str,
+    duration: float | None,
+    json_path: Path | None,
+    csv_path: Path | None,
+    plots: Path | None,
+) -> None:
+    """Thesis chapter 5 on several engines: press the index fingertip on a surface, measure joint MAD.
+
+    Every engine loads the same generated model (MJCF for MuJoCo, URDF for the others) and runs the
+    experiment of `svhdesc validate`'s contact check for each finger-inertia setting. Prints a Markdown
+    table like thesis Tables 5.1/5.2. A missing engine is reported, not fatal.
+    """
+    import svhdesc
+
+    from .compare.runner import ENGINES, inertia_label, run_grid
+    from .extras import require
+
+    # MuJoCo places the surface for every engine; matplotlib draws the plots. Both before any run.
+    require("mujoco", "'svhdesc compare'", "sim")
+    if plots is not None:
+        require("matplotlib", "'svhdesc compare --plots'")
+    if variant not in svhdesc.variants():
+        raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc.variants())}")
+    names = [n.strip() for n in engines.split(",") if n.strip()]
+    unknown = [n for n in names if n not in ENGINES]
+    if unknown or not names:
+        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(ENGINES)}")
+    settings: list[float | None] = []
+    for text in (t.strip() for t in inertias.split(",")):
+        if text == "physical":
+            settings.append(None)
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not value > 0:
+            raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
+        settings.append(value)
+
+    from .compare.report import markdown, plot, plot_overview, write_csv, write_json
+
+    def progress(result: Any) -> None:
+        extra = f" ({result.note})" if result.note else ""
+        click.echo(f"{result.engine} inertia {inertia_label(result.inertia)}: {result.status}{extra}", err=True)
+
+    setup, results = run_grid(variant, names, settings, duration, progress)
+    click.echo(markdown(setup, results, variant))
+    if json_path is not None:
+        write_json(json_path, variant, setup, results, duration)
+    if csv_path is not None:
+        write_csv(csv_path, results)
+    if plots is not None:
+        overview = plot_overview(results, plots / f"{variant}_compare_force.png")
+        for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
+            click.echo(f"wrote {path}", err=True)
 
 
 @main.command("sim", context_settings={"ignore_unknown_options": True})

@@ -22,8 +22,9 @@ def default_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "svhdesc" / "hulls"
 
 
-def _mesh(data: bytes) -> trimesh.Trimesh:
-    mesh = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="stl", process=False)
+def _mesh(data: bytes, file_type: str = "stl") -> trimesh.Trimesh:
+    # Committed collision hulls are OBJ (older outputs STL); both hold the same float32 corners.
+    mesh = trimesh.load(trimesh.util.wrap_as_stream(data), file_type=file_type, process=False)
     mesh.merge_vertices(digits_vertex=12)
     return mesh
 
@@ -34,7 +35,7 @@ class HullSource:
     jobs: int = 0
     force: bool = False
     progress: bool = False
-    seeds: dict[str, list[bytes]] = field(default_factory=dict)  # key -> hull STL bytes
+    seeds: dict[str, list[tuple[str, bytes]]] = field(default_factory=dict)  # key -> (format, hull bytes)
     results: dict[str, list[trimesh.Trimesh]] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=lambda: {"decomposed": 0, "cached": 0, "committed": 0})
 
@@ -54,7 +55,7 @@ class HullSource:
                     data = path.read_bytes() if path.is_file() else None
                     if data is None or hashlib.sha256(data).hexdigest() != outputs.get(f"assets/{name}"):
                         break  # a missing or edited file is not a cache entry
-                    blobs.append(data)
+                    blobs.append((path.suffix[1:].lower(), data))
                 else:
                     self.seeds[key] = blobs
 
@@ -66,7 +67,7 @@ class HullSource:
             if key in self.results:
                 continue
             if key in self.seeds and not self.force:
-                self.results[key] = [_mesh(b) for b in self.seeds[key]]
+                self.results[key] = [_mesh(b, kind) for kind, b in self.seeds[key]]
                 self.counts["committed"] += 1
             else:
                 todo.append((key, mesh, params))

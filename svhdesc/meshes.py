@@ -142,6 +142,29 @@ def stl_bytes(mesh: trimesh.Trimesh) -> bytes:
     return STL_HEADER + np.uint32(n).astype("<u4").tobytes() + records.tobytes()
 
 
+def obj_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """Canonical Wavefront OBJ (the collision-mesh format every engine reads, Drake included).
+
+    The same float32 corners as ``stl_bytes``, each written as the shortest decimal of that float32's
+    exact double value, so float32 and float64 readers get exactly those corners. Vertices are unique
+    and sorted, each face starts at its smallest index (winding kept) and faces are sorted, so the same
+    triangles give the same bytes whatever the vertex and face order.
+    """
+    tri = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces, dtype=np.int64)]
+    tri32 = tri.astype("<f4") + np.float32(0.0)  # -0.0 -> 0.0
+    corners = tri32.reshape(-1, 3)
+    vertices, inverse = np.unique(corners, axis=0, return_inverse=True)  # lexicographic rows
+    faces = inverse.reshape(-1, 3)
+    if len(faces):
+        first = np.argmin(faces, axis=1)
+        faces = faces[np.arange(len(faces))[:, None], (first[:, None] + np.arange(3)[None, :]) % 3]
+        faces = faces[np.lexsort(faces.T[::-1])]
+    lines = ["# svhdesc OBJ"]
+    lines += [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    return ("\n".join(lines) + "\n").encode()
+
+
 def convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """Convex hull of the vertices (qhull), independent of vertex order, normals outward."""
     points = np.unique(np.asarray(mesh.vertices, dtype=np.float64), axis=0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -10,6 +11,7 @@ from lxml import etree
 
 from .config import Variant
 from .coupling import apply_spec, load_spec
+from .export.urdf import mimic_order_problems
 from .hull_source import HullSource
 from .ir import Robot
 from .packages import resolve_uri
@@ -68,6 +70,9 @@ def compile_variant(
         spec = load_spec(spec_path)
         widen = variant.settings["coupled_limits"] == "widen"
         robot = apply_spec(source.robot, spec, prefix, widen_limits=widen)
+        for problem in mimic_order_problems(robot):
+            # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
+            warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)
     assets = Assets()
     with timings.stage("meshes"):
         rules = collision_rules(robot, variant.settings["collision"], prefix)

@@ -52,7 +52,7 @@ def hand_config(tmp_path: Path, collision: dict) -> Path:
 
 
 def _hull_bytes(out: Path) -> list[bytes]:
-    return [p.read_bytes() for p in sorted((out / "hand" / "assets").glob("t_hull_*.stl"))]
+    return [p.read_bytes() for p in sorted((out / "hand" / "assets").glob("t_hull_*.obj"))]
 
 
 def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
@@ -108,7 +108,7 @@ def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None
     per_body: dict[str, int] = {}
     for geom in mjcf.iterfind(".//geom[@class='collision']"):
         body = geom.getparent().get("name")
-        mesh = trimesh.load(GENERATED / variant / "assets" / f"{geom.get('mesh')}.stl")
+        mesh = trimesh.load(GENERATED / variant / "assets" / f"{geom.get('mesh')}.obj")
         assert mesh.is_convex and mesh.is_watertight, geom.get("mesh")
         assert len(mesh.vertices) <= 64
         per_body[body] = per_body.get(body, 0) + 1
@@ -173,11 +173,13 @@ def test_vendor_description_compiles_and_simulates_without_warnings(tmp_path: Pa
             text=True,
         )
         assert check.returncode == 0, check.stdout + check.stderr
-        assert len(list((out / variant / "assets").glob("*_hull_*.stl"))) > 23
+        assert len(list((out / variant / "assets").glob("*_hull_*.obj"))) > 23
 
 
 def test_built_outputs_are_the_committed_ones() -> None:
     """The session build used the cache or committed hulls and still reproduced generated/ exactly."""
     for variant in ("svh_right", "ur5_svh_right"):
-        for path in (GENERATED / variant / "assets").glob("*_hull_*.stl"):
+        hulls = sorted((GENERATED / variant / "assets").glob("*_hull_*.obj"))
+        assert len(hulls) > 23
+        for path in hulls:
             assert (built() / variant / "assets" / path.name).read_bytes() == path.read_bytes()

@@ -123,3 +123,27 @@ def test_linear_coupling_needs_no_warning(tmp_path: Path) -> None:
 def test_image_finds_interior_extrema() -> None:
     low, high = image((0.0, 1.0, -1.0), 0.0, 1.0)  # q - q^2 peaks at 0.25 inside the range
     assert (low, high) == pytest.approx((0.0, 0.25))
+
+
+def test_mimic_order_follows_urdfdom_name_sorting(tmp_path: Path) -> None:
+    # urdfdom (pinocchio) visits sibling joints sorted by name: a follower in a sibling subtree whose
+    # joint name sorts first is reached before its channel, which pinocchio's mimic=True rejects.
+    from svhdesc.export.urdf import mimic_order_problems, urdfdom_joint_order
+
+    links = tuple(Link(n) for n in ("base", "x", "y", "z"))
+
+    def toy(first: str) -> Robot:
+        joints = (
+            Joint(f"h_{first}", "fixed", "base", "x"),
+            Joint("h_c", "revolute", "x", "y", upper=2.0),  # follows B
+            Joint("h_B", "revolute", "base", "z", upper=2.0),
+            Joint("h_A", "revolute", "z", "l0", upper=2.0),
+        )
+        return Robot("toy", (*links, Link("l0")), joints, "base")
+
+    spec = write(tmp_path, "  - {joint: c, follows: B, poly: [0.0, 0.5]}\n")
+    late = apply_spec(toy("f1"), load_spec(spec), "h")  # "h_B" < "h_f1": the channel comes first
+    assert urdfdom_joint_order(late) == ["h_B", "h_A", "h_f1", "h_c"]
+    assert mimic_order_problems(late) == []
+    early = apply_spec(toy("A0"), load_spec(spec), "h")  # "h_A0" < "h_B": the follower comes first
+    assert mimic_order_problems(early) == ["h_c comes before h_B in urdfdom's name-sorted traversal"]

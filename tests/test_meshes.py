@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from svhdesc.meshes import MeshError, convex_hull, load_mesh, mesh_volume, principal_cylinder, stl_bytes
+from svhdesc.meshes import MeshError, convex_hull, load_mesh, mesh_volume, obj_bytes, principal_cylinder, stl_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(__file__).resolve().parents[2] / "shared"
@@ -234,3 +234,16 @@ def test_authoring_script_reproduces_the_committed_meshes(tmp_path: Path):
     for path in AUTHORED_FILES:
         fresh = tmp_path / path.parent.name / path.name
         assert fresh.read_bytes() == path.read_bytes(), f"{path.relative_to(REPO)} differs from the script's output"
+
+
+def test_obj_bytes_canonical_and_exact_float32_corners():
+    mesh = _l_shape()
+    data = obj_bytes(mesh)
+    assert data == obj_bytes(_shuffled(mesh, 1)) == obj_bytes(_shuffled(mesh, 2))
+    back = trimesh.load(io.BytesIO(data), file_type="obj", process=False)
+    assert len(back.faces) == len(mesh.faces) and back.is_watertight
+    assert back.volume == pytest.approx(mesh.volume, rel=1e-6)  # winding kept: outward normals
+    # Read as float64, the corners are exactly the float32 corners the STL stores.
+    stl = trimesh.load(io.BytesIO(stl_bytes(mesh)), file_type="stl", process=False)
+    corners = np.asarray(back.vertices)[np.asarray(back.faces)].reshape(-1, 3)
+    assert np.array_equal(np.unique(corners, axis=0), np.unique(np.asarray(stl.vertices), axis=0))

@@ -58,22 +58,16 @@ def test_masses_follow_the_budget(variant: str) -> None:
     for link, mass in arm.items():
         assert masses[link] == mass
         assert model.body_mass[model.body(link).id] == pytest.approx(mass, rel=1e-12)
-    assert model.body_subtreemass[0] == pytest.approx(1.3 + sum(arm.values()), rel=1e-9)
-    # Geometry-less links carry no invented mass, except a tiny one where a movable joint needs it
-    # (sdformat drops joints hanging from massless links).
-    movable_ends = {
-        e.get("link")
-        for j in urdf.findall("joint")
-        if j.get("type") != "fixed"
-        for e in (j.find("parent"), j.find("child"))
-    }
+    # Every geometry-less link but the root carries a tiny mass: pybullet and DART would give an
+    # inertial-less link 1 kg, and sdformat drops joints hanging from massless links.
     virtual = [link for link in urdf.findall("link") if link.find("visual") is None and link.get("name") != "world"]
     assert len(virtual) >= 8
     for link in virtual:
-        if link.get("name") in movable_ends:
-            assert float(link.find("inertial/mass").get("value")) <= 1e-4
-        else:
-            assert link.find("inertial") is None, link.get("name")
+        assert float(link.find("inertial/mass").get("value")) == 1e-4, link.get("name")
+    frames = [link for link in virtual if not link.get("name").startswith(PREFIX[variant])]  # arm frames
+    total = 1.3 + sum(arm.values()) + 1e-4 * len(frames)  # hand frames come out of the hand budget
+    assert model.body_subtreemass[0] == pytest.approx(total, rel=1e-9)
+    assert urdf.find("link[@name='world']/inertial") is None
 
 
 @pytest.mark.parametrize("variant", VARIANTS)

@@ -25,7 +25,7 @@ def _pose_attrs(pose: Any) -> dict[str, str]:
 def _geom(body: etree._Element, geometry: Geometry, cls: str, link: Link) -> None:
     attrs = {"class": cls, **_pose_attrs(geometry.origin)}
     if geometry.kind == "mesh":
-        attrs.update(type="mesh", mesh=geometry.mesh.removesuffix(".stl"))  # type: ignore[union-attr]
+        attrs.update(type="mesh", mesh=_mesh_name(geometry.mesh))  # type: ignore[arg-type]
     elif geometry.kind == "box":
         attrs.update(type="box", size=nums(s / 2.0 for s in geometry.size))
     elif geometry.kind == "cylinder":
@@ -63,6 +63,11 @@ def _joint(body: etree._Element, joint: Joint, gravcomp: bool) -> None:
         attrs["actuatorgravcomp"] = "true"
         attrs["actuatorfrcrange"] = nums((-joint.effort, joint.effort))
     sub(body, "joint", **attrs)
+
+
+def _mesh_name(asset: str) -> str:
+    """Asset file name without its extension (visual .stl, collision .obj; the stems differ)."""
+    return asset.rsplit(".", 1)[0]
 
 
 def _body(parent: etree._Element, robot: Robot, link: Link, joint: Joint | None, gravcomp: bool) -> None:
@@ -156,7 +161,7 @@ def export_mjcf(robot: Robot, settings: dict[str, Any]) -> bytes:
     asset = sub(root, "asset")
     meshes = sorted({g.mesh for link in robot.links for g in (*link.visuals, *link.collisions) if g.kind == "mesh"})
     for mesh in meshes:
-        sub(asset, "mesh", name=mesh.removesuffix(".stl"), file=mesh)  # type: ignore[union-attr]
+        sub(asset, "mesh", name=_mesh_name(mesh), file=mesh)  # type: ignore[arg-type]
     worldbody = sub(root, "worldbody")
     top = sub(worldbody, "body", name=f"{robot.name}_root", childclass=robot.name)
     # Geometry-less roots (a URDF 'world' link) become the world itself.

@@ -1,4 +1,4 @@
-"""Mesh assets produced by the build: name -> STL bytes, plus the loaded mesh for later stages."""
+"""Mesh assets of the build: name -> file bytes (visual STL, collision OBJ), plus the loaded mesh."""
 
 from __future__ import annotations
 

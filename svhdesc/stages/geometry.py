@@ -13,7 +13,7 @@ from ..decompose import DecompParams, bounded_hull
 from ..errors import SvhdescError
 from ..hull_source import HullSource
 from ..ir import Geometry, Robot
-from ..meshes import MeshError, convex_hull, load_mesh, principal_cylinder, stl_bytes
+from ..meshes import MeshError, convex_hull, load_mesh, obj_bytes, principal_cylinder, stl_bytes
 from .assets import Assets
 from .collision_rules import CollisionRule
 from .frames import matrix_pose, pose_matrix
@@ -120,14 +120,14 @@ def bake_meshes(
                 names = []
                 for i, part in enumerate(parts):
                     part = scaled(part, geometry.scale)
-                    names.append(assets.add(f"{name}_hull_{i:02d}.stl", part, stl_bytes(part)))
+                    names.append(assets.add(f"{name}_hull_{i:02d}.obj", part, obj_bytes(part)))
                 if geometry.scale == (1.0, 1.0, 1.0):
                     assets.decompositions[decomposition] = names
                 done[key] = [replace(plain, mesh=n) for n in names]
             else:
                 limit = rule.params.max_hull_vertices if rule.params else DecompParams().max_hull_vertices
                 mesh = _hull(source, geometry.scale, limit)
-                done[key] = [replace(plain, mesh=assets.add(f"{name}_hull.stl", mesh, stl_bytes(mesh)))]
+                done[key] = [replace(plain, mesh=assets.add(f"{name}_hull.obj", mesh, obj_bytes(mesh)))]
         return done[key]
 
     links = []

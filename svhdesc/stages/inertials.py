@@ -112,9 +112,14 @@ TINY_INERTIAL = Inertial(TINY_MASS, (0.0, 0.0, 0.0), (1e-9, 0.0, 0.0, 1e-9, 0.0,
 
 
 def needs_tiny_mass(robot: Robot) -> set[str]:
-    """Geometry-less links no output can merge away: those a movable joint hangs from (sdformat drops
-    a joint whose parent link is massless) or that move themselves (MuJoCo needs mass on a moving body)."""
-    geometry = {link.name for link in robot.links if link.has_geometry}
-    ends = {j.parent for j in robot.joints if j.movable} | {j.child for j in robot.joints if j.movable}
-    root = robot.root
-    return {name for name in ends if name not in geometry and name != root}
+    """Every geometry-less link without a source inertial, except the root.
+
+    Consumers disagree on what an inertial-less link is: sdformat drops a joint whose parent link is
+    massless, MuJoCo needs mass on a moving body, and pybullet and DART give such a link 1 kg and a unit
+    inertia (a 5.3 kg hand, and a broken j5 coupling in DART). Merging the links away would drop frames
+    people use (tool0, flange, base; the palm helper frames of the vendor tree), so each gets a negligible
+    mass instead. The root (a URDF 'world' link) stays massless: every consumer treats it as the world.
+    """
+    return {
+        link.name for link in robot.links if not link.has_geometry and link.inertial is None and link.name != robot.root
+    }

@@ -1,0 +1,46 @@
+"""The full chapter-5 comparison: every engine x finger-inertia setting, full-length runs (5 s each).
+
+    python benchmarks/compare_bench.py [--duration S] [--out DIR]
+
+Prints the Markdown table (README, section "Engine comparison") and writes compare.json, compare.csv,
+per-run plots and the overview figure compare_force.png under --out (default /tmp/svhdesc-compare).
+CPU-heavy (DART and Drake run slower than real time on meshes): run it once, not in CI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from svhdesc.compare.report import markdown, plot, plot_overview, summary, write_csv, write_json
+from svhdesc.compare.runner import run_grid
+
+ENGINES = ["mujoco", "dart", "bullet", "drake"]
+INERTIAS: list[float | None] = [None, 0.001, 0.01, 0.1]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--variant", default="ur5_svh_right")
+    parser.add_argument("--duration", type=float, default=None, help="seconds per run (default 5)")
+    parser.add_argument("--out", type=Path, default=Path("/tmp/svhdesc-compare"))
+    args = parser.parse_args()
+    started = time.perf_counter()
+
+    def progress(result) -> None:  # noqa: ANN001 - runner.Result
+        print(f"  {result.engine:>6} {result.label:>8}: {result.status} {result.note}", flush=True)
+
+    setup, results = run_grid(args.variant, ENGINES, INERTIAS, args.duration, progress)
+    print(markdown(setup, results, args.variant))
+    print()
+    print(summary(results))
+    write_json(args.out / "compare.json", args.variant, setup, results, args.duration)
+    write_csv(args.out / "compare.csv", results)
+    plot(results, args.out / "plots", args.variant)
+    overview = plot_overview(results, args.out / "compare_force.png")
+    print(f"\nwrote {args.out} (overview {overview}); {time.perf_counter() - started:.0f} s in all")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""Load a built variant into the engines people use, in the spirit of robot_descriptions' loaders.
+
+Each loader imports its engine only when called (a missing engine raises ``svhdesc.extras.MissingExtra``
+naming the pip extra) and honours the hand's 11 couplings (the URDF's ``<mimic>``, from ``config/coupling.yaml``):
+
+    from svhdesc.loaders import load_dart, load_drake, load_mujoco, load_pinocchio, load_pybullet
+    model = load_mujoco("svh_right")                   # mujoco.MjModel (joint equalities)
+    robot = load_pinocchio("svh_right")                # pinocchio.RobotWrapper, mimic model: nq = 9
+    pb = load_pybullet("svh_right")                    # PybulletRobot(client, body, joints, constraints)
+    drake = load_drake("svh_right", time_step=1e-3)    # DrakeRobot(builder, plant, scene_graph, instance)
+    skeleton = load_dart("svh_right")                  # dartpy Skeleton, coupler constraints
+
+The same functions are exported lazily from ``svhdesc`` (``svhdesc.load_pybullet`` ...).
+"""
+
+from __future__ import annotations
+
+from ._common import Coupling, couplings
+from .dart import load_dart
+from .drake import DrakeRobot, load_drake
+from .mujoco import load_mujoco
+from .pinocchio import load_pinocchio
+from .pybullet import PybulletRobot, load_pybullet
+
+__all__ = [
+    "Coupling",
+    "DrakeRobot",
+    "PybulletRobot",
+    "couplings",
+    "load_dart",
+    "load_drake",
+    "load_mujoco",
+    "load_pinocchio",
+    "load_pybullet",
+]

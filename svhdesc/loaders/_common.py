@@ -1,0 +1,55 @@
+"""What every loader shares: the optional import, the URDF with absolute mesh paths, the couplings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+from lxml import etree
+
+from .. import get
+from ..extras import require as _require
+
+
+def require(module: str, loader: str) -> ModuleType:
+    """Import an engine on first use, or raise svhdesc.extras.MissingExtra naming the pip extra."""
+    return _require(module, purpose=loader)
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """joint = multiplier * leader + offset (a URDF <mimic>)."""
+
+    joint: str
+    leader: str
+    multiplier: float
+    offset: float
+
+
+def couplings(name: str) -> list[Coupling]:
+    """The variant's coupled joints, in the URDF's order."""
+    root = etree.parse(str(get(name).urdf_path)).getroot()
+    return [
+        Coupling(
+            joint.get("name"),
+            mimic.get("joint"),
+            float(mimic.get("multiplier", "1")),
+            float(mimic.get("offset", "0")),
+        )
+        for joint in root.iter("joint")
+        if (mimic := joint.find("mimic")) is not None
+    ]
+
+
+def contact_excludes(name: str) -> list[tuple[str, str]]:
+    """Link pairs the MJCF never collides (adjacent, or touching at rest): engines with self-collision
+    on by default (Drake) need the same filter, or the fingers start in contact with the palm."""
+    root = etree.parse(str(get(name).mjcf_path)).getroot()
+    return [(e.get("body1"), e.get("body2")) for e in root.iter("exclude")]
+
+
+def absolute_urdf(name: str) -> Path:
+    """The variant's URDF with every mesh as an absolute path (pybullet, pinocchio, Drake and DART have
+    no ROS package lookup); every loader gets its URDF here."""
+    return get(name).absolute_urdf_path("path")
