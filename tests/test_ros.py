@@ -7,6 +7,7 @@ as fast as possible on simulated time) and one in-process rospy client serve the
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 import threading
@@ -344,6 +345,16 @@ def test_node_survived_and_logged_reasons(ros: dict[str, Any]) -> None:
     wait_for(lambda: logged("inf is not finite", math.inf), 30, "a logged reason", period=0.2)
     wait_for(lambda: logged("5.0 is not finite or outside", 5.0), 30, "the range reason", period=0.2)
     assert np.all(np.isfinite(list(_positions(ros).values())))
+
+
+def test_cli_without_a_master_says_so(tmp_path: Path) -> None:
+    from .rosmaster import free_port
+
+    env = {**os.environ, "ROS_MASTER_URI": f"http://127.0.0.1:{free_port()}", "ROS_HOME": str(tmp_path)}
+    result = subprocess.run(
+        [svhdesc_executable(), "sim", "svh_right", "--ros"], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 2 and result.stderr.startswith("error: no ROS master at http://127.0.0.1:")
 
 
 def test_cli_refuses_bad_connector_without_traceback(tmp_path: Path) -> None:

@@ -306,6 +306,10 @@ def run_node(
         sim.body_pose(body)
     path = connector or default_connector(variant)
     joints = load_connector(path) if path.is_file() or connector is not None else []
+    import rosgraph
+
+    if not rosgraph.Master("/svhdesc_sim").is_online():  # rospy would wait for it forever
+        raise SvhdescError(f"no ROS master at {rosgraph.get_master_uri()}: start roscore (or use roslaunch)")
     window = None
     if viewer:
         from ..sim.viewer import Viewer
