@@ -17,6 +17,7 @@ from .finite import check_finite
 from .freshness import portable, sha256, svhdesc_version, tool_versions
 from .outdir import output_directory, publish
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
+from .ros_outputs import EXECUTABLE, ros_outputs
 from .timings import Timings
 from .yamlio import where
 
@@ -44,8 +45,12 @@ def write_variant(
         "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
     }
     with timings.stage("export"):
+        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets, variant.settings))
         for name, data in outputs.items():
+            (directory / name).parent.mkdir(parents=True, exist_ok=True)
             (directory / name).write_bytes(data)
+            if name.startswith("scripts/"):
+                (directory / name).chmod(EXECUTABLE)
     packages = {**variant.packages(), **extra_packages}
     inputs = {
         portable(p, packages, variant.config_dir): sha256(p.read_bytes())

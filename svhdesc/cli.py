@@ -1,4 +1,7 @@
-"""Command line: ``svhdesc build|list|info|validate|render|compare``. Bad input: one line on stderr, exit code 2."""
+"""Command line: ``svhdesc build|list|info|validate|render|compare|wireloop|sim``.
+
+Bad input: one line on stderr, exit code 2.
+"""
 
 from __future__ import annotations
 
@@ -360,6 +363,89 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
 
 
+# --- wire-and-loop planner (thesis Appendix A); everything it needs is imported inside the commands ---
+
+
+@main.group("wireloop")
+def wireloop_group() -> None:
+    """The wire-and-loop Q-learning planner of the thesis' Appendix A."""
+
+
+@wireloop_group.command("train")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--episodes", type=int, default=50, show_default=True, help="Training episodes per cycle (N_e).")
+@click.option("--cycles", type=int, default=200, show_default=True, help="Training cycles at most (N_c).")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@_friendly
+def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) -> None:
+    """Train on a wire; write q_table.json, summary.json and distance.png into OUT."""
+    from .extras import require
+    from .wireloop.commands import train_to
+
+    require("matplotlib", "'svhdesc wireloop train'")
+
+    summary = train_to(out, path, seed, episodes, cycles)
+    solved = summary["cycles_to_solve"]
+    click.echo(
+        f"{summary['path']}: {'solved after ' + str(solved) + ' cycles' if solved else 'not solved'} "
+        f"in {summary['wall_s']:.3f} s ({summary['episodes_run']} episodes, {summary['states']} states); "
+        f"wrote {out}"
+    )
+
+
+@wireloop_group.command("solve")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Picture (default: next to the policy).")
+@_friendly
+def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
+    """Run a learned policy greedily along a wire; print the time per action, draw the loop's path."""
+    from .extras import require
+    from .wireloop.commands import solve
+
+    require("matplotlib", "'svhdesc wireloop solve'")
+    from .wireloop.plots import plot_run
+
+    result = solve(policy, path)
+    run = result.run
+    out = out or policy.parent / f"solve_{result.env.map.name}.png"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plot_run(result.env, run.cells, out, f"{result.env.map.name}: {run.outcome} in {run.steps} actions")
+    click.echo(
+        f"{result.env.map.name}: {run.outcome} after {run.steps} actions, {run.best}/{len(result.env.path_cells) - 1} "
+        f"pixels along the wire; {result.per_action_s * 1e6:.2f} us per action "
+        f"({result.decide_s * 1e6:.2f} us per decision); wrote {out}"
+    )
+    if run.outcome != "completed":
+        sys.exit(1)
+
+
+@wireloop_group.command("mujoco")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="q_table.json from train.")
+@click.option("--path", "path", default="training", show_default=True, help="Wire map file or built-in name.")
+@click.option("--out", type=click.Path(path_type=Path), default=Path("wireloop"), show_default=True)
+@click.option("--actions", type=int, default=None, help="Execute only the plan's first ACTIONS moves.")
+@click.option("--no-picture", is_flag=True, help="Skip the rendered picture.")
+@_friendly
+def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_picture: bool) -> None:
+    """Execute the greedy plan with the UR5 + SVH in MuJoCo; write mujoco.json and mujoco.png into OUT."""
+    from .extras import require
+    from .wireloop.commands import run_mujoco
+
+    require("mujoco", "'svhdesc wireloop mujoco'", "sim")
+
+    report = run_mujoco(policy, path, out, actions, picture=not no_picture)
+    click.echo(
+        f"{report['path']}: {report['actions']} actions in {report['sim_s']:.2f} s simulated "
+        f"({report['wall_s']:.1f} s wall); loop touched the wire: {'YES' if report['touched_wire'] else 'no'}; "
+        f"smallest clearance {report['min_clearance_m'] * 1000:.1f} mm; worst tracking error "
+        f"{report['worst_position_error_m'] * 1000:.2f} mm, {report['worst_yaw_error_deg']:.2f} deg; wrote {out}"
+    )
+    if report["touched_wire"] or report["other_wire_contacts"]:
+        sys.exit(1)
+
+
 @main.command("compare")
 @click.argument("variant", default="ur5_svh_right")
 @click.option(
@@ -446,6 +532,57 @@ def compare_command(
         overview = plot_overview(results, plots / f"{variant}_compare_force.png")
         for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
             click.echo(f"wrote {path}", err=True)
+
+
+@main.command("sim", context_settings={"ignore_unknown_options": True})
+@click.argument("variant")
+@click.option("--keyframe", default="home", show_default=True, help="Start pose (a keyframe of the model).")
+@click.option("--ros", "use_ros", is_flag=True, help="Run as a ROS 1 node with the real drivers' interfaces.")
+@click.option("--viewer", is_flag=True, help="Show MuJoCo's passive viewer (needs a display).")
+@click.option(
+    "--duration", type=float, default=None, help="Simulated seconds (default: 1 s; endless with --ros/--viewer)."
+)
+@click.option("--realtime/--as-fast", default=True, show_default=True, help="Pace to the wall clock, or run flat out.")
+@click.option("--track", multiple=True, metavar="BODY", help="Report (with --ros: publish) this body's pose.")
+@click.option("--rate", type=float, default=50.0, show_default=True, help="With --ros: /joint_states rate in Hz.")
+@click.option(
+    "--connector",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="With --ros: the connector YAML (default: the variant's config/connector.yaml).",
+)
+@click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
+@_friendly
+def sim_command(
+    variant: str,
+    keyframe: str,
+    use_ros: bool,
+    viewer: bool,
+    duration: float | None,
+    realtime: bool,
+    track: tuple[str, ...],
+    rate: float,
+    connector: Path | None,
+    ros_args: tuple[str, ...],
+) -> None:
+    """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
+
+    Trailing NAME:=VALUE arguments are ROS remappings (roslaunch passes __name:= and __log:=)."""
+    if duration is not None and not duration > 0:
+        raise SvhdescError(f"--duration must be positive, got {duration}")
+    stray = [a for a in ros_args if ":=" not in a]
+    if stray:
+        raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
+    if use_ros:
+        from .ros.node import run_node
+
+        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args))
+        return
+    if ros_args:
+        raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
+    from .sim.cli_run import run_plain
+
+    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +16,7 @@ from lxml import etree
 
 import svhdesc
 
+from .rosmaster import free_port
 from .support import REPO
 
 ROSPY = Path("/usr/lib/python3/dist-packages/rospy")
@@ -24,12 +24,6 @@ DEBIAN_PYTHON = "/usr/bin/python3"
 needs_ros = pytest.mark.skipif(
     not ROSPY.is_dir(), reason="Debian's ROS 1 is not installed (bash tools/install.sh test)"
 )
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
 
 
 def free_display() -> str:

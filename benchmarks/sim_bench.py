@@ -1,0 +1,135 @@
+"""Speed of the ROS node (``svhdesc sim VARIANT --ros --as-fast``) beside the bare ``mj_step`` rate.
+
+    python benchmarks/sim_bench.py [WINDOW]      # wall seconds timed per variant (default 5)
+
+Per variant: (a) bare mj_step on the scene (10 simulated s), as a real-time factor at the model's timestep;
+(b) the node as fast as it can, with every topic it publishes subscribed (so every message is
+serialised and sent): /clock (100 Hz), /joint_states (50 Hz), connector pose topics, feedback,
+the fingertip wrench and one tracked body, while one goal per controller moves home -> test.
+Goal: the node keeps >= 3x real time for ur5_svh_right on 2 cores. Not a test: machines are noisy.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import svhdesc  # noqa: E402
+from svhdesc.ros.system import import_ros  # noqa: E402
+from tests.rosmaster import master, stop, wait_for  # noqa: E402
+
+TRACK = {"svh_right": "right_hand_t", "svh_left": "left_hand_t", "ur5_svh_right": "tool0"}
+
+
+def bare_rate(variant: str, seconds: float) -> float:
+    model = svhdesc.load_mujoco(variant, scene=True)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    steps = round(seconds / model.opt.timestep)
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return steps * model.opt.timestep / (time.perf_counter() - start)
+
+
+def node_rate(variant: str, window: float, rospy: object) -> float:
+    """Simulated seconds per wall second over ``window`` wall seconds, everything subscribed."""
+    from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
+    from rospy import AnyMsg  # type: ignore[import-not-found]
+
+    from svhdesc.ros.messages import control_msgs
+    from svhdesc.sim import Simulation
+
+    info = Simulation(variant).info
+    test = dict(zip(info.actuators, svhdesc.load_mujoco(variant).key("test").ctrl))
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).with_name("svhdesc")),
+            "sim",
+            variant,
+            "--ros",
+            "--as-fast",
+            "--track",
+            TRACK[variant],
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    subscribers: dict[str, object] = {}
+    latest: list[float] = []
+    try:
+
+        def subscribe_all() -> bool:
+            for topic, _ in rospy.get_published_topics():
+                # The action topics are the in-process action clients' own (rospy allows one type per topic).
+                ours = "/follow_joint_trajectory/" in topic
+                if topic not in subscribers and topic not in ("/rosout", "/clock") and not ours:
+                    subscribers[topic] = rospy.Subscriber(topic, AnyMsg, lambda _: None, queue_size=10)
+            return "/joint_states" in subscribers
+
+        wait_for(subscribe_all, 60, "the node's topics")
+        subscribers["/clock"] = rospy.Subscriber("/clock", Clock, lambda m: latest.append(m.clock.to_sec()))
+        time.sleep(1.0)
+        subscribe_all()
+        send_goals(variant, info, test, control_msgs(), rospy)
+        subscribe_all()  # the action topics now carry feedback and results
+        wait_for(lambda: latest, 30, "/clock")
+        sim0, wall0 = latest[-1], time.perf_counter()
+        time.sleep(window)
+        sim1, wall1 = latest[-1], time.perf_counter()
+    finally:
+        stop(process)
+        for subscriber in subscribers.values():
+            subscriber.unregister()
+    return (sim1 - sim0) / (wall1 - wall0)
+
+
+def send_goals(variant: str, info: object, test: dict[str, float], msgs: object, rospy: object) -> None:
+    """One slow home -> test goal per controller, so feedback flows while the window is timed."""
+    import actionlib  # type: ignore[import-not-found]
+    from trajectory_msgs.msg import JointTrajectoryPoint  # type: ignore[import-not-found]
+
+    from svhdesc.interfaces import ARM_CONTROLLER, hand_controller
+
+    groups = [(hand_controller(info.hand_prefix), info.hand_channels)]
+    if info.arm_joints:
+        groups.append((ARM_CONTROLLER, info.arm_joints))
+    for controller, joints in groups:
+        client = actionlib.SimpleActionClient(
+            f"/{controller}/follow_joint_trajectory", msgs.FollowJointTrajectoryAction
+        )
+        client.wait_for_server()
+        goal = msgs.FollowJointTrajectoryGoal()
+        goal.trajectory.joint_names = list(joints)
+        point = JointTrajectoryPoint(positions=[test[j] for j in joints], time_from_start=rospy.Duration(60.0))
+        goal.trajectory.points.append(point)
+        client.send_goal(goal)
+
+
+def main() -> None:
+    window = float(sys.argv[1]) if len(sys.argv) > 1 else 5.0
+    rospy = import_ros()
+    home = Path(tempfile.mkdtemp(prefix="svhdesc-bench-ros-"))
+    with master(home) as env:
+        os.environ.update(env)
+        rospy.set_param("/use_sim_time", True)
+        rospy.init_node("svhdesc_bench", anonymous=True, disable_signals=True)
+        print(f"{'variant':<16} {'bare mj_step':>14} {'ROS node':>10}  (real-time factors; node: {window:g} s wall)")
+        for variant in svhdesc.variants():
+            bare = bare_rate(variant, 10.0)
+            node = node_rate(variant, window, rospy)
+            print(f"{variant:<16} {bare:13.1f}x {node:9.1f}x")
+    print("goal: ur5_svh_right node >= 3x real time")
+
+
+if __name__ == "__main__":
+    main()

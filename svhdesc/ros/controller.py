@@ -1,0 +1,240 @@
+"""One JointTrajectoryController: a FollowJointTrajectory action server and a ``command`` topic.
+
+Semantics follow ros_control's joint_trajectory_controller: a goal is checked (INVALID_JOINTS,
+INVALID_GOAL, OLD_HEADER_TIMESTAMP) and rejected, or accepted and preempts the active goal; the
+active goal aborts on a path tolerance violation (the joints then hold where they are) or when the
+joints are not within the goal tolerance ``goal_time`` after the end; cancel holds the current
+position. ROS callbacks only queue work; the simulation thread does it (see node.py).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import SvhdescError
+from ..interfaces import ACTION
+from ..sim import Point, Simulation
+from ..sim.trajectory import Trajectory
+from . import goals as codes
+from .goals import Tolerances, check_goal
+
+
+@dataclass
+class _Active:
+    handle: Any  # actionlib ServerGoalHandle
+    joints: list[str]
+    trajectory: Trajectory
+    tolerances: Tolerances
+
+
+def _duration(value: Any) -> float:
+    return float(value.secs) + 1e-9 * float(value.nsecs)
+
+
+def _points(trajectory_msg: Any) -> list[Point]:
+    points = []
+    for point in trajectory_msg.points:
+        points.append(
+            Point(
+                _duration(point.time_from_start),
+                tuple(point.positions),
+                tuple(point.velocities) or None,
+                tuple(point.accelerations) or None,
+            )
+        )
+    return points
+
+
+class TrajectoryController:
+    def __init__(
+        self,
+        name: str,
+        joints: Sequence[str],
+        sim: Simulation,
+        msgs: Any,
+        allow_partial: bool,
+        defaults: Tolerances,
+        queue: deque,
+        send: Callable[[list[tuple[Any, Any]]], None] | None = None,
+        feedback_period: float = 0.05,
+    ) -> None:
+        """``send`` hands (callable, message) pairs to a publishing thread (default: call at once)."""
+        import actionlib
+        import rospy
+        from trajectory_msgs.msg import JointTrajectory
+
+        self.name = name
+        self.joints = list(joints)
+        self._sim = sim
+        self._msgs = msgs
+        self._rospy = rospy
+        self._allow_partial = allow_partial
+        self.defaults = defaults
+        self._queue = queue
+        self._active: _Active | None = None
+        self._feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
+        self._send = send or (lambda batch: [target(message) for target, message in batch])
+        self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
+        self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
+        self._next_feedback = 0.0
+        self._limits = {j: sim.limits(j) for j in self.joints}
+        self._server = actionlib.ActionServer(
+            f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
+            msgs.FollowJointTrajectoryAction,
+            lambda handle: queue.append((self.on_goal, handle)),
+            lambda handle: queue.append((self.on_cancel, handle)),
+            auto_start=False,
+        )
+        self._command = rospy.Subscriber(
+            f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=10
+        )
+
+    def start(self) -> None:
+        self._server.start()
+
+    # -- called from the simulation thread ---------------------------------------------------
+    def _result(self, code: int, text: str) -> Any:
+        return self._msgs.FollowJointTrajectoryResult(error_code=code, error_string=text)
+
+    def _check(self, msg: Any) -> tuple[list[Point], codes.Rejection | None]:
+        points = _points(msg)
+        stamp = msg.header.stamp.to_sec()
+        rejection = check_goal(
+            msg.joint_names, points, stamp, self._sim.time, self.joints, self._allow_partial, self._limits
+        )
+        return points, rejection
+
+    def _start(self, msg: Any, points: list[Point]) -> Trajectory:
+        stamp = msg.header.stamp.to_sec()
+        return self._sim.follow(list(msg.joint_names), points, None if stamp == 0.0 else stamp)
+
+    def _preempt(self, why: str) -> None:
+        if self._active is not None:
+            self._active.handle.set_canceled(self._result(codes.SUCCESSFUL, why), why)
+            self._active = None
+
+    def on_goal(self, handle: Any) -> None:
+        goal = handle.get_goal()
+        try:
+            points, rejection = self._check(goal.trajectory)
+        except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
+            points, rejection = [], codes.Rejection(codes.INVALID_GOAL, f"malformed goal: {exc}")
+        if rejection is None and not points:
+            rejection = codes.Rejection(codes.INVALID_GOAL, "the trajectory has no points")
+        if rejection is None:
+            try:
+                trajectory = self._start(goal.trajectory, points)
+            except SvhdescError as exc:
+                rejection = codes.Rejection(codes.INVALID_GOAL, str(exc))
+        if rejection is not None:
+            self._rospy.logwarn(f"{self.name}: goal rejected ({rejection.code}): {rejection.reason}")
+            handle.set_rejected(self._result(rejection.code, rejection.reason), rejection.reason)
+            return
+        self._preempt("preempted by a new goal")
+        handle.set_accepted("")
+        tolerances = self.defaults.merged(
+            {t.name: t.position for t in goal.path_tolerance},
+            {t.name: t.position for t in goal.goal_tolerance},
+            _duration(goal.goal_time_tolerance),
+        )
+        self._active = _Active(handle, list(goal.trajectory.joint_names), trajectory, tolerances)
+        self._next_feedback = self._sim.time
+
+    def on_cancel(self, handle: Any) -> None:
+        from actionlib_msgs.msg import GoalStatus
+
+        if self._active is not None and self._active.handle.get_goal_id().id == handle.get_goal_id().id:
+            self._sim.hold(self._active.joints)
+            self._active = None
+        cancelable = (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.RECALLING, GoalStatus.PREEMPTING)
+        if handle.get_goal_status().status in cancelable:  # a finished goal stays as it ended
+            handle.set_canceled(self._result(codes.SUCCESSFUL, "canceled"), "canceled")
+
+    def on_command(self, msg: Any) -> None:
+        if not msg.points:  # an empty trajectory stops the controller where it is
+            self._preempt("stopped by an empty command")
+            self._sim.hold(self.joints)
+            return
+        try:
+            points, rejection = self._check(msg)
+            if rejection is None:
+                self._start(msg, points)
+        except (TypeError, ValueError, AttributeError, SvhdescError) as exc:
+            rejection = codes.Rejection(codes.INVALID_GOAL, f"malformed command: {exc}")
+        if rejection is not None:
+            self._rospy.logwarn(f"{self.name}/command: trajectory ignored: {rejection.reason}")
+            return
+        self._preempt("preempted by a command")
+
+    def update(self) -> None:
+        """Check the active goal's tolerances and send feedback (every control period)."""
+        active = self._active
+        if active is None:
+            return
+        sim = self._sim
+        now = sim.time
+        desired = sim.desired(active.joints, now)
+        actual = sim.data.qpos[[self._qpos[j] for j in active.joints]].copy()
+        actual_velocity = sim.data.qvel[[self._qvel[j] for j in active.joints]].copy()
+        error = desired.positions - actual
+        if now >= self._next_feedback:
+            self._feedback(active, desired, actual, actual_velocity)
+            self._next_feedback = now + self._feedback_period
+        tolerances = active.tolerances
+        if now < active.trajectory.end_time:
+            for joint, e in zip(active.joints, error):
+                limit = tolerances.path.get(joint, 0.0)
+                if limit > 0 and abs(e) > limit:
+                    self._finish(
+                        codes.PATH_TOLERANCE_VIOLATED,
+                        f"{joint} is {abs(e):.4f} rad off its path (tolerance {limit})",
+                        hold=True,
+                    )
+                    return
+            return
+        final = active.trajectory.final_positions
+        columns = [active.trajectory.joints.index(j) for j in active.joints]
+        off = {j: abs(final[c] - a) for j, c, a in zip(active.joints, columns, actual)}
+        inside = all(tolerances.goal.get(j, 0.0) <= 0 or off[j] <= tolerances.goal[j] for j in active.joints)
+        still = tolerances.stopped_velocity <= 0 or bool(np.all(np.abs(actual_velocity) <= tolerances.stopped_velocity))
+        if inside and still:
+            self._finish(codes.SUCCESSFUL, "")
+        elif tolerances.goal_time > 0 and now > active.trajectory.end_time + tolerances.goal_time:
+            worst = max(off, key=off.get)
+            self._finish(
+                codes.GOAL_TOLERANCE_VIOLATED,
+                f"{worst} is {off[worst]:.4f} rad from its goal {tolerances.goal_time} s after the end "
+                f"(tolerance {tolerances.goal.get(worst, 0.0)})",
+            )
+
+    def _finish(self, code: int, text: str, hold: bool = False) -> None:
+        active = self._active
+        assert active is not None
+        self._active = None
+        if hold:
+            self._sim.hold(active.joints)
+        if code == codes.SUCCESSFUL:
+            active.handle.set_succeeded(self._result(code, text), text)
+        else:
+            self._rospy.logwarn(f"{self.name}: goal aborted ({code}): {text}")
+            active.handle.set_aborted(self._result(code, text), text)
+
+    def _feedback(self, active: _Active, desired: Any, actual: np.ndarray, velocity: np.ndarray) -> None:
+        from trajectory_msgs.msg import JointTrajectoryPoint
+
+        feedback = self._msgs.FollowJointTrajectoryFeedback()
+        feedback.header.stamp = self._rospy.Time.from_sec(self._sim.time)
+        feedback.joint_names = active.joints
+        feedback.desired = JointTrajectoryPoint(
+            positions=desired.positions.tolist(), velocities=desired.velocities.tolist()
+        )
+        feedback.actual = JointTrajectoryPoint(positions=actual.tolist(), velocities=velocity.tolist())
+        feedback.error = JointTrajectoryPoint(
+            positions=(desired.positions - actual).tolist(), velocities=(desired.velocities - velocity).tolist()
+        )
+        self._send([(active.handle.publish_feedback, feedback)])

@@ -1,0 +1,332 @@
+"""The ROS 1 node (``svhdesc sim VARIANT --ros``): the simulation behind the real drivers' interfaces.
+
+Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
+  /clock                                              rosgraph_msgs/Clock, simulated time
+  /joint_states                                       sensor_msgs/JointState, every joint
+  /<prefix>_controller/follow_joint_trajectory        control_msgs/FollowJointTrajectory (9 channels)
+  /<prefix>_controller/command                        trajectory_msgs/JointTrajectory
+  /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command   (6 arm joints)
+  connector topics (config/connector.yaml)            std_msgs/Float64 control / pose / initpose
+  /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
+  <F3D topicName of the URDF>                         geometry_msgs/WrenchStamped, index fingertip
+
+All names but /clock and the connector's are relative: started in a namespace (``__ns:=left``),
+the node serves there. All work on the simulation happens in one thread; ROS callbacks only queue it.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time as wallclock
+import warnings
+from collections import deque
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from lxml import etree
+
+from ..errors import SvhdescError
+from ..interfaces import ARM_CONTROLLER, CONSTRAINTS, NODE_NAME, hand_controller
+from ..sim import Simulation
+from .connector import ConnectorJoint, load_connector
+from .goals import Tolerances
+from .messages import control_msgs
+from .system import import_ros
+
+
+def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
+    """(topic, body, frame) of each Gazebo F3D plugin in the URDF: the wrench topics Gazebo would publish."""
+    found = []
+    for plugin in etree.parse(str(urdf)).iterfind(".//gazebo/plugin[@filename='libgazebo_ros_f3d.so']"):
+        topic, body, frame = (plugin.findtext(tag) for tag in ("topicName", "bodyName", "frameName"))
+        if topic and body:
+            found.append((topic, body, frame or body))  # relative, as Gazebo resolves it in the robot namespace
+    return found
+
+
+def urdf_root(urdf: Path) -> str:
+    tree = etree.parse(str(urdf))
+    children = {j.get("link") for j in tree.iterfind("joint/child")}
+    roots = [link.get("name") for link in tree.iterfind("link") if link.get("name") not in children]
+    return roots[0] if roots else "world"
+
+
+def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -> Tolerances:
+    defaults = CONSTRAINTS[kind]
+    base = f"{controller}/constraints"
+    return Tolerances(
+        path={j: float(rospy.get_param(f"{base}/{j}/trajectory", defaults["trajectory"])) for j in joints},
+        goal={j: float(rospy.get_param(f"{base}/{j}/goal", defaults["goal"])) for j in joints},
+        stopped_velocity=float(
+            rospy.get_param(f"{base}/stopped_velocity_tolerance", defaults["stopped_velocity_tolerance"])
+        ),
+        goal_time=float(rospy.get_param(f"{base}/goal_time", defaults["goal_time"])),
+    )
+
+
+def _publisher(rospy: Any, topic: str, kind: Any) -> Any:
+    """A synchronous publisher, used only from the Outbox thread: rospy's queued ones hand every
+    message to another thread and yield (time.sleep(0)), which under the GIL costs up to a switch
+    interval per message."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # rospy warns that queue_size=None publishes synchronously
+        return rospy.Publisher(topic, kind, queue_size=None)
+
+
+class Outbox:
+    """Publishes from its own thread: rospy's queued publish yields the thread after every message
+    (time.sleep(0), ~0.1 ms on a busy machine), which would otherwise stall the simulation. When
+    ``limit`` batches wait, the simulation waits too, so what subscribers see lags the physics by a
+    few control periods at most, even when running as fast as possible."""
+
+    def __init__(self, limit: int = 4) -> None:
+        self._batches: deque = deque()
+        self._limit = limit
+        self._ready = threading.Condition()
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="svhdesc-outbox", daemon=True)
+        self._thread.start()
+
+    def send(self, batch: list[tuple[Any, Any]]) -> None:
+        """Queue ``batch``: (publisher or any callable taking one message, message) pairs."""
+        with self._ready:
+            while len(self._batches) >= self._limit and not self._closed:
+                self._ready.wait(0.5)
+            self._batches.append(batch)
+            self._ready.notify_all()
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                while not self._batches and not self._closed:
+                    self._ready.wait()
+                if self._closed and not self._batches:
+                    return
+                batch = self._batches.popleft()
+                self._ready.notify_all()
+            for target, message in batch:
+                try:
+                    (target.publish if hasattr(target, "publish") else target)(message)
+                except Exception:  # noqa: BLE001 - at shutdown rospy refuses; the thread must live on
+                    pass
+
+    def close(self) -> None:
+        with self._ready:
+            self._closed = True
+            self._ready.notify_all()
+        self._thread.join(5.0)
+
+
+class SimNode:
+    def __init__(
+        self,
+        sim: Simulation,
+        connector: Sequence[ConnectorJoint],
+        track: Sequence[str],
+        rate: float,
+        clock_rate: float,
+    ) -> None:
+        rospy = import_ros()
+        from geometry_msgs.msg import PoseStamped, WrenchStamped
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64
+
+        import svhdesc
+
+        from .controller import TrajectoryController
+
+        self._rospy = rospy
+        self.sim = sim
+        self.queue: deque = deque()
+        self.outbox = Outbox()
+        self._period = 1.0 / rate
+        self._clock_period = 1.0 / clock_rate
+        urdf = svhdesc.get(sim.variant).urdf_path
+        self._frame = urdf_root(urdf)
+        msgs = control_msgs()
+        self._clock = _publisher(rospy, "/clock", Clock)
+        self._joint_states = _publisher(rospy, "joint_states", JointState)
+        self._Clock, self._JointState = Clock, JointState
+        self._PoseStamped, self._WrenchStamped, self._Float64 = PoseStamped, WrenchStamped, Float64
+        self._tracked = [(body, _publisher(rospy, f"tracked/{body}", PoseStamped)) for body in track]
+        self._wrenches = [
+            (body, frame, _publisher(rospy, topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
+        ]
+        self.controllers: list[TrajectoryController] = []
+        info = sim.info
+        groups = []
+        if info.hand_channels:
+            groups.append((hand_controller(info.hand_prefix or "hand"), info.hand_channels, True, "hand"))
+        if info.arm_joints:
+            groups.append((ARM_CONTROLLER, info.arm_joints, False, "arm"))
+        for name, joints, partial, kind in groups:
+            self.controllers.append(
+                TrajectoryController(
+                    name,
+                    joints,
+                    sim,
+                    msgs,
+                    partial,
+                    _tolerances(rospy, name, joints, kind),
+                    self.queue,
+                    self.outbox.send,
+                )
+            )
+        self._pose_topics = []
+        for joint in connector:
+            sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
+            sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
+            self._pose_topics.append((joint.name, _publisher(rospy, joint.pose_topic, Float64)))
+            rospy.Subscriber(joint.control_topic, Float64, self._queued(self._on_target, joint.name), queue_size=10)
+            rospy.Subscriber(joint.initpose_topic, Float64, self._queued(self._on_initpose, joint.name), queue_size=10)
+        for controller in self.controllers:
+            controller.start()
+
+    def _queued(self, handler: Any, joint: str) -> Any:
+        return lambda msg: self.queue.append((handler, (joint, msg)))
+
+    def _checked(self, joint: str, msg: Any) -> float:
+        """The message's value, if finite and within the joint's range (the servo would clamp it)."""
+        value = float(msg.data)
+        low, high = self.sim.limits(joint)
+        if not math.isfinite(value) or not low <= value <= high:
+            raise SvhdescError(f"{value} is not finite or outside [{low}, {high}]")
+        return value
+
+    def _on_target(self, item: tuple[str, Any]) -> None:
+        joint, msg = item
+        try:
+            self.sim.set_target(joint, self._checked(joint, msg))
+        except (SvhdescError, TypeError, ValueError) as exc:
+            self._rospy.logwarn(f"connector: target for {joint} ignored: {exc}")
+
+    def _on_initpose(self, item: tuple[str, Any]) -> None:
+        joint, msg = item
+        try:
+            self.sim.set_joint_position(joint, self._checked(joint, msg))
+        except (SvhdescError, TypeError, ValueError) as exc:
+            self._rospy.logwarn(f"connector: initial pose for {joint} ignored: {exc}")
+
+    def _drain(self) -> None:
+        while self.queue:
+            handler, argument = self.queue.popleft()
+            try:
+                handler(argument)
+            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
+                self._rospy.logerr(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+
+    def publish_state(self) -> None:
+        rospy, sim = self._rospy, self.sim
+        stamp = rospy.Time.from_sec(sim.time)
+        state = sim.joint_state()
+        message = self._JointState(
+            name=list(state.names),
+            position=state.positions.tolist(),
+            velocity=state.velocities.tolist(),
+            effort=state.efforts.tolist(),
+        )
+        message.header.stamp = stamp
+        batch: list[tuple[Any, Any]] = [(self._joint_states, message)]
+        positions = dict(zip(state.names, state.positions.tolist()))
+        for joint, publisher in self._pose_topics:
+            batch.append((publisher, self._Float64(positions[joint])))
+        for body, publisher in self._tracked:
+            position, quaternion = sim.body_pose(body)
+            pose = self._PoseStamped()
+            pose.header.stamp, pose.header.frame_id = stamp, self._frame
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position.tolist()
+            o = pose.pose.orientation
+            o.w, o.x, o.y, o.z = quaternion.tolist()
+            batch.append((publisher, pose))
+        for body, frame, publisher in self._wrenches:
+            force, torque = sim.contact_wrench(body)
+            wrench = self._WrenchStamped()
+            wrench.header.stamp, wrench.header.frame_id = stamp, frame
+            wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = force.tolist()
+            wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque.tolist()
+            batch.append((publisher, wrench))
+        self.outbox.send(batch)
+
+    def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
+        """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
+        rospy, sim = self._rospy, self.sim
+        chunk = max(1, round(self._clock_period / sim.timestep))
+        begin_wall, begin_sim = wallclock.perf_counter(), sim.time
+        next_state = sim.time
+        self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
+        while not rospy.is_shutdown() and sim.time - begin_sim < duration - 0.5 * sim.timestep:
+            self._drain()
+            sim.step(chunk)
+            self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
+            for controller in self.controllers:
+                controller.update()
+            if sim.time >= next_state - 0.5 * sim.timestep:
+                self.publish_state()
+                next_state += self._period
+            if viewer is not None:
+                viewer.sync()
+                if not viewer.running:
+                    break
+            if realtime:
+                ahead = (sim.time - begin_sim) - (wallclock.perf_counter() - begin_wall)
+                if ahead > 0:
+                    wallclock.sleep(ahead)
+        elapsed = wallclock.perf_counter() - begin_wall
+        return (sim.time - begin_sim) / elapsed if elapsed > 0 else math.inf
+
+
+def default_connector(variant: str) -> Path:
+    import svhdesc
+
+    return svhdesc.get(variant).directory / "config" / "connector.yaml"
+
+
+def run_node(
+    variant: str,
+    keyframe: str | None,
+    viewer: bool,
+    duration: float | None,
+    realtime: bool,
+    track: Sequence[str],
+    rate: float,
+    connector: Path | None,
+    ros_args: list[str],
+) -> None:
+    """``svhdesc sim VARIANT --ros``: serve the simulation to the ROS master in ROS_MASTER_URI."""
+    if not rate > 0:
+        raise SvhdescError(f"--rate must be positive, got {rate}")
+    # rospy leaves sockets to the garbage collector at shutdown: not the user's concern.
+    warnings.filterwarnings("ignore", category=ResourceWarning)
+    rospy = import_ros()
+    sim = Simulation(variant, keyframe)
+    for body in track:
+        sim.body_pose(body)
+    path = connector or default_connector(variant)
+    joints = load_connector(path) if path.is_file() or connector is not None else []
+    import rosgraph
+
+    if not rosgraph.Master("/svhdesc_sim").is_online():  # rospy would wait for it forever
+        raise SvhdescError(f"no ROS master at {rosgraph.get_master_uri()}: start roscore (or use roslaunch)")
+    window = None
+    if viewer:
+        from ..sim.viewer import Viewer
+
+        window = Viewer(sim.model, sim.data)
+    rospy.init_node(NODE_NAME, argv=["svhdesc", *ros_args], disable_signals=False)
+    clock_rate = float(rospy.get_param("~clock_rate", 100.0))  # Gazebo's pub_clock_frequency default
+    rate = float(rospy.get_param("~rate", rate))
+    if not (clock_rate > 0 and rate > 0):
+        raise SvhdescError(f"~clock_rate and ~rate must be positive, got {clock_rate}, {rate}")
+    node = SimNode(sim, joints, track, rate, clock_rate)
+    rospy.loginfo(f"{variant}: simulating ({'real time' if realtime else 'as fast as possible'})")
+    try:
+        factor = node.spin(math.inf if duration is None else duration, realtime, window)
+    finally:
+        node.outbox.close()
+        if window is not None:
+            window.close()
+    rospy.loginfo(f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time")
+    rospy.signal_shutdown("done")

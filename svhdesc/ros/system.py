@@ -1,0 +1,56 @@
+"""Debian's ROS 1 Python packages, seen from the virtual environment.
+
+The venv does not see /usr/lib/python3/dist-packages; it is appended (never prepended) to
+sys.path so the venv's own packages (numpy, yaml, ...) keep precedence.
+"""
+
+from __future__ import annotations
+
+import sys
+from types import ModuleType
+
+from ..errors import SvhdescError
+
+DIST_PACKAGES = "/usr/lib/python3/dist-packages"
+# Debian 12 packages the node needs (ros-core brings roscore and roslaunch).
+APT_PACKAGES = (
+    "ros-core",
+    "python3-rospy",
+    "python3-actionlib",
+    "python3-actionlib-msgs",
+    "python3-genpy",
+    "python3-genmsg",
+    "python3-std-msgs",
+    "python3-sensor-msgs",
+    "python3-geometry-msgs",
+    "python3-trajectory-msgs",
+    "python3-rosgraph-msgs",
+    "ros-robot-state-publisher",
+)
+
+
+def ros_available() -> bool:
+    from pathlib import Path
+
+    return (Path(DIST_PACKAGES) / "rospy" / "__init__.py").is_file()
+
+
+def import_ros() -> ModuleType:
+    """``rospy`` (with actionlib and the message packages importable), or a clear error."""
+    if DIST_PACKAGES not in sys.path:
+        sys.path.append(DIST_PACKAGES)
+    try:
+        import actionlib  # noqa: F401
+        import actionlib_msgs.msg  # noqa: F401
+        import genpy  # noqa: F401
+        import geometry_msgs.msg  # noqa: F401
+        import rosgraph_msgs.msg  # noqa: F401
+        import rospy
+        import sensor_msgs.msg  # noqa: F401
+        import std_msgs.msg  # noqa: F401
+        import trajectory_msgs.msg  # noqa: F401
+    except ImportError as exc:
+        raise SvhdescError(
+            f"the ROS node needs Debian's ROS 1 Python packages ({exc}): apt-get install {' '.join(APT_PACKAGES)}"
+        ) from None
+    return rospy

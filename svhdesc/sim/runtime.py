@@ -1,0 +1,361 @@
+"""A variant's scene in MuJoCo, driven by joint targets and trajectories; no ROS needed.
+
+sim = Simulation("ur5_svh_right", keyframe="home")
+sim.follow(["shoulder_pan_joint"], [Point(2.0, (1.0,))])
+sim.advance(2.5)
+sim.joint_state()             # every joint, coupled ones included
+"""
+
+from __future__ import annotations
+
+import math
+import time as wallclock
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import SvhdescError
+from .robot import RobotInfo, describe
+from .trajectory import Point, State, Trajectory, validate_points
+
+
+@dataclass(frozen=True)
+class JointState:
+    names: tuple[str, ...]
+    positions: np.ndarray
+    velocities: np.ndarray
+    efforts: np.ndarray
+
+
+@dataclass
+class _Active:
+    """A trajectory and the actuators it still drives (a later goal may take some over)."""
+
+    trajectory: Trajectory
+    columns: list[int]
+    actuators: list[int]
+
+
+def _compensate_gravity(spec: Any) -> None:
+    """The real drivers hold their pose against gravity (the UR's controller, the SVH's position
+    loop); a bare position servo would sag. Models that already carry gravcomp keep theirs."""
+    bodies = list(spec.bodies)[1:]
+    if any(body.gravcomp for body in bodies):
+        return
+    for body in bodies:
+        body.gravcomp = 1.0
+    actuated = {actuator.target for actuator in spec.actuators}
+    for joint in spec.joints:
+        if joint.name in actuated:
+            joint.actgravcomp = True
+
+
+class Simulation:
+    def __init__(
+        self,
+        variant: str,
+        keyframe: str | None = "home",
+        gravity_compensation: bool = True,
+        edit: Callable[[Any], None] | None = None,
+    ) -> None:
+        """``edit`` may change the scene's ``mujoco.MjSpec`` before it compiles (add objects)."""
+        import mujoco
+
+        import svhdesc
+
+        self._mj = mujoco
+        try:
+            scene = svhdesc.get(variant).scene_path
+        except KeyError as exc:
+            raise SvhdescError(str(exc.args[0])) from None
+        self.variant = variant
+        spec = mujoco.MjSpec.from_file(str(scene))
+        if gravity_compensation:
+            _compensate_gravity(spec)
+        if edit is not None:
+            edit(spec)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.info: RobotInfo = describe(self.model)
+        self._act_index = {name: i for i, name in enumerate(self.info.actuators)}
+        self._qpos = np.array([self.model.joint(j).qposadr[0] for j in self.info.joints], dtype=int)
+        self._qvel = np.array([self.model.joint(j).dofadr[0] for j in self.info.joints], dtype=int)
+        self._act_qpos = np.array([self.model.joint(a).qposadr[0] for a in self.info.actuators], dtype=int)
+        self._act_qvel = np.array([self.model.joint(a).dofadr[0] for a in self.info.actuators], dtype=int)
+        self._ctrlrange = self.model.actuator_ctrlrange.copy()
+        self._active: list[_Active] = []
+        self._step_hooks: list[Callable[[], None]] = []
+        self.reset(keyframe)
+
+    # -- setup -------------------------------------------------------------------------------
+    def reset(self, keyframe: str | None = "home") -> None:
+        """Back to ``keyframe`` (or the model's zero pose): state, targets and trajectories."""
+        mujoco = self._mj
+        if keyframe is None:
+            mujoco.mj_resetData(self.model, self.data)
+        else:
+            if keyframe not in self.info.keyframes:
+                raise SvhdescError(
+                    f"{self.variant} has no keyframe {keyframe!r}; it has: {', '.join(self.info.keyframes) or 'none'}"
+                )
+            mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(keyframe).id)
+            self.data.ctrl[:] = self.data.qpos[self._act_qpos]
+        self._active.clear()
+        mujoco.mj_forward(self.model, self.data)
+
+    # -- names -------------------------------------------------------------------------------
+    def actuator(self, name: str) -> int:
+        """Index of the actuator driving ``name``: a joint name or a bare channel name."""
+        if name in self._act_index:
+            return self._act_index[name]
+        prefixed = f"{self.info.hand_prefix}_{name}"
+        if self.info.hand_prefix and prefixed in self._act_index:
+            return self._act_index[prefixed]
+        raise SvhdescError(f"{name!r} is not an actuated joint of {self.variant}")
+
+    def limits(self, name: str) -> tuple[float, float]:
+        """The commandable range of actuated joint ``name`` (its servo's ctrlrange)."""
+        low, high = self._ctrlrange[self.actuator(name)]
+        return float(low), float(high)
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    # -- commands ----------------------------------------------------------------------------
+    def set_target(self, name: str, value: float) -> None:
+        """Servo ``name`` to ``value`` (clamped to its range); stops any trajectory on it."""
+        if not math.isfinite(value):
+            raise SvhdescError(f"target for {name!r} is not finite: {value}")
+        index = self.actuator(name)
+        self._release([index])
+        low, high = self._ctrlrange[index]
+        self.data.ctrl[index] = min(max(value, low), high)
+
+    def set_targets(self, targets: Mapping[str, float]) -> None:
+        for name, value in targets.items():
+            self.set_target(name, value)
+
+    def targets(self) -> dict[str, float]:
+        return {name: float(self.data.ctrl[i]) for name, i in self._act_index.items()}
+
+    def set_gains(self, name: str, p_gain: float, d_gain: float) -> None:
+        """ctrl force = -p_gain (q - q_ref) - d_gain q_dot (thesis eq. 4.2) on ``name``'s servo."""
+        if not (math.isfinite(p_gain) and math.isfinite(d_gain)) or p_gain < 0 or d_gain < 0:
+            raise SvhdescError(f"gains for {name!r} must be finite and non-negative: p {p_gain}, d {d_gain}")
+        index = self.actuator(name)
+        self.model.actuator_gainprm[index, 0] = p_gain
+        self.model.actuator_biasprm[index, 1] = -p_gain
+        self.model.actuator_biasprm[index, 2] = -d_gain
+
+    def gains(self, name: str) -> tuple[float, float]:
+        index = self.actuator(name)
+        return float(self.model.actuator_gainprm[index, 0]), float(-self.model.actuator_biasprm[index, 2])
+
+    def set_joint_position(self, name: str, value: float) -> None:
+        """Teleport an actuated joint (and the joints coupled to it) to ``value``, at rest, held there."""
+        if not math.isfinite(value):
+            raise SvhdescError(f"position for {name!r} is not finite: {value}")
+        index = self.actuator(name)
+        joint = self.info.actuators[index]
+        low, high = self._ctrlrange[index]
+        value = min(max(value, low), high)
+        self._release([index])
+        self.data.ctrl[index] = value
+        self.data.qpos[self._act_qpos[index]] = value
+        self.data.qvel[self._act_qvel[index]] = 0.0
+        for coupling in self.info.couplings:
+            if coupling.channel_joint == joint:
+                j = self.model.joint(coupling.joint)
+                self.data.qpos[j.qposadr[0]] = coupling.value(value)
+                self.data.qvel[j.dofadr[0]] = 0.0
+        self._mj.mj_forward(self.model, self.data)
+
+    def desired(self, names: Sequence[str], at: float | None = None) -> State:
+        """The commanded state of actuated joints ``names`` now (trajectory sample or held target)."""
+        at = self.time if at is None else at
+        indices = [self.actuator(n) for n in names]
+        positions = self.data.ctrl[indices].astype(float)
+        velocities = np.zeros(len(indices))
+        accelerations = np.zeros(len(indices))
+        where = {a: k for k, a in enumerate(indices)}
+        for active in self._active:
+            state = None
+            for column, actuator in zip(active.columns, active.actuators):
+                if actuator in where:
+                    state = state or active.trajectory.sample(at)
+                    k = where[actuator]
+                    positions[k] = state.positions[column]
+                    velocities[k] = state.velocities[column]
+                    accelerations[k] = state.accelerations[column]
+        return State(positions, velocities, accelerations)
+
+    def follow(self, names: Sequence[str], points: Sequence[Point], start_time: float | None = None) -> Trajectory:
+        """Follow ``points`` on the actuated joints ``names`` from ``start_time`` (default: now).
+
+        Joints not named keep what they were doing. Positions outside a joint's range are refused
+        (the servo would clamp them and the trajectory could never be reached)."""
+        indices = [self.actuator(n) for n in names]
+        if len(set(indices)) != len(indices):
+            raise SvhdescError(f"joint names repeat: {list(names)}")
+        problem = validate_points(points, len(indices))
+        if problem:
+            raise SvhdescError(problem)
+        for point in points:
+            for value, index in zip(point.positions, indices):
+                low, high = self._ctrlrange[index]
+                if not low - 1e-9 <= value <= high + 1e-9:
+                    raise SvhdescError(
+                        f"{self.info.actuators[index]}: position {value} is outside its range [{low}, {high}]"
+                    )
+        now = self.time
+        start = self.desired(names, now)
+        trajectory = Trajectory(
+            [self.info.actuators[i] for i in indices], start, now if start_time is None else start_time, points, now
+        )
+        self._release(indices)
+        self._active.append(_Active(trajectory, list(range(len(indices))), indices))
+        return trajectory
+
+    def hold(self, names: Sequence[str]) -> None:
+        """Stop trajectories on ``names`` and hold their current positions (a cancel)."""
+        indices = [self.actuator(n) for n in names]
+        self._release(indices)
+        self.data.ctrl[indices] = self.data.qpos[self._act_qpos[indices]]
+
+    def _release(self, indices: Sequence[int]) -> None:
+        taken = set(indices)
+        for active in self._active:
+            if taken & set(active.actuators):
+                # Freeze the released joints at their current desired position first.
+                state = active.trajectory.sample(self.time)
+                keep = [(c, a) for c, a in zip(active.columns, active.actuators) if a not in taken]
+                for c, a in zip(active.columns, active.actuators):
+                    if a in taken:
+                        self.data.ctrl[a] = state.positions[c]
+                active.columns = [c for c, _ in keep]
+                active.actuators = [a for _, a in keep]
+        self._active = [a for a in self._active if a.actuators]
+
+    # -- stepping ----------------------------------------------------------------------------
+    def add_step_hook(self, hook: Callable[[], None]) -> None:
+        """Called after every physics step (for monitors that must see each step)."""
+        self._step_hooks.append(hook)
+
+    def step(self, count: int = 1) -> None:
+        mujoco = self._mj
+        for _ in range(count):
+            now = self.time + self.timestep
+            finished = []
+            for active in self._active:
+                state = active.trajectory.sample(now)
+                self.data.ctrl[active.actuators] = state.positions[active.columns]
+                if now >= active.trajectory.end_time:
+                    finished.append(active)
+            for active in finished:
+                self._active.remove(active)
+            mujoco.mj_step(self.model, self.data)
+            for hook in self._step_hooks:
+                hook()
+        if not np.all(np.isfinite(self.data.qpos)):
+            raise SvhdescError(f"{self.variant}: the simulation diverged at t = {self.time:.3f} s")
+
+    def advance(self, seconds: float) -> None:
+        self.step(max(0, round(seconds / self.timestep)))
+
+    def run(
+        self,
+        duration: float,
+        realtime: bool = True,
+        every: float = 0.02,
+        callback: Callable[[Simulation], bool | None] | None = None,
+    ) -> float:
+        """Step for ``duration`` simulated seconds (math.inf: until ``callback`` returns False).
+
+        ``callback`` runs every ``every`` simulated seconds. Returns the real-time factor."""
+        chunk = max(1, round(every / self.timestep))
+        begin_wall, begin_sim = wallclock.perf_counter(), self.time
+        while self.time - begin_sim < duration - 0.5 * self.timestep:
+            remaining = round((duration - (self.time - begin_sim)) / self.timestep)
+            self.step(min(chunk, remaining) if math.isfinite(duration) else chunk)
+            if callback is not None and callback(self) is False:
+                break
+            if realtime:
+                ahead = (self.time - begin_sim) - (wallclock.perf_counter() - begin_wall)
+                if ahead > 0:
+                    wallclock.sleep(ahead)
+        elapsed = wallclock.perf_counter() - begin_wall
+        return (self.time - begin_sim) / elapsed if elapsed > 0 else math.inf
+
+    # -- readings ----------------------------------------------------------------------------
+    def joint_state(self) -> JointState:
+        """Every joint, coupled ones included; efforts are the actuator forces (0 on coupled joints)."""
+        efforts = np.zeros(len(self.info.joints))
+        actuator_force = dict(zip(self.info.actuators, self.data.actuator_force))
+        for k, name in enumerate(self.info.joints):
+            efforts[k] = actuator_force.get(name, 0.0)
+        return JointState(
+            self.info.joints, self.data.qpos[self._qpos].copy(), self.data.qvel[self._qvel].copy(), efforts
+        )
+
+    def positions(self) -> dict[str, float]:
+        state = self.joint_state()
+        return dict(zip(state.names, state.positions.tolist()))
+
+    def _body(self, name: str) -> int:
+        body = self._mj.mj_name2id(self.model, self._mj.mjtObj.mjOBJ_BODY, name)
+        if body < 0:
+            raise SvhdescError(f"{self.variant} has no body {name!r}")
+        return body
+
+    def body_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """World position and orientation quaternion (w, x, y, z) of body ``name``."""
+        body = self._body(name)
+        return self.data.xpos[body].copy(), self.data.xquat[body].copy()
+
+    def fingertip_force(self) -> float:
+        """Normal force (N) on the index fingertip's touch sensor; 0 without one."""
+        mujoco = self._mj
+        for s in range(self.model.nsensor):
+            if int(self.model.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_TOUCH):
+                return float(self.data.sensordata[self.model.sensor_adr[s]])
+        return 0.0
+
+    def touch_body(self) -> str | None:
+        """The body carrying the touch sensor's site (the index fingertip)."""
+        mujoco = self._mj
+        for s in range(self.model.nsensor):
+            if int(self.model.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_TOUCH):
+                site = self.model.sensor_objid[s]
+                return self.model.body(self.model.site_bodyid[site]).name
+        return None
+
+    def contact_wrench(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Total contact force and torque on body ``name`` (about its origin, in its frame), as
+        Gazebo's F3D plugin reports them."""
+        mujoco = self._mj
+        body = self._body(name)
+        force, torque = np.zeros(3), np.zeros(3)
+        local = np.zeros(6)
+        origin = self.data.xpos[body]
+        for i in range(self.data.ncon):
+            contact = self.data.contact[i]
+            bodies = self.model.geom_bodyid[contact.geom1], self.model.geom_bodyid[contact.geom2]
+            if body not in bodies or bodies[0] == bodies[1]:
+                continue
+            mujoco.mj_contactForce(self.model, self.data, i, local)
+            frame = contact.frame.reshape(3, 3)
+            # The contact frame's normal points from geom1 to geom2; the force acts on geom2.
+            sign = 1.0 if bodies[1] == body else -1.0
+            f_world = sign * frame.T @ local[:3]
+            t_world = sign * frame.T @ local[3:]
+            force += f_world
+            torque += t_world + np.cross(contact.pos - origin, f_world)
+        rotation = self.data.xmat[body].reshape(3, 3)
+        return rotation.T @ force, rotation.T @ torque

@@ -1,0 +1,79 @@
+"""A real ROS 1 master on 127.0.0.1 (random free port) for the tests, and helpers around it."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+ADDRESS = "127.0.0.1"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind((ADDRESS, 0))
+        return s.getsockname()[1]
+
+
+def ros_environment(port: int, home: Path) -> dict[str, str]:
+    """Everything bound to 127.0.0.1; logs under ``home``."""
+    return {
+        "ROS_MASTER_URI": f"http://{ADDRESS}:{port}",
+        "ROS_IP": ADDRESS,
+        "ROS_HOSTNAME": ADDRESS,
+        "ROS_HOME": str(home),
+        "ROS_LOG_DIR": str(home / "log"),
+    }
+
+
+def wait_for(condition: Callable[[], Any], timeout: float, what: str, period: float = 0.05) -> Any:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(period)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+@contextmanager
+def master(home: Path) -> Iterator[dict[str, str]]:
+    """rosmaster on a free port; the environment variables that reach it. Sets them in this process
+    too (rospy reads them once, at init_node)."""
+    port = free_port()
+    env = ros_environment(port, home)
+    os.environ.update(env)
+    process = subprocess.Popen(
+        ["rosmaster", "--core", "-p", str(port), "-w", "1"],
+        env={**os.environ, **env},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        import rosgraph
+
+        wait_for(lambda: rosgraph.Master("/svhdesc_test").is_online(), 20, "rosmaster")
+        yield env
+    finally:
+        stop(process)
+
+
+def stop(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(15)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def svhdesc_executable() -> str:
+    return str(Path(sys.executable).with_name("svhdesc"))
