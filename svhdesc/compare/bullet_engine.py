@@ -16,6 +16,9 @@ from .engine import Engine, RunConfig
 
 POSITION_GAIN = 0.1  # pybullet's defaults for POSITION_CONTROL
 VELOCITY_GAIN = 1.0
+# Motors, gears and contacts share one constraint island: with pybullet's default 50 iterations the index
+# finger's gear (j14) lags 13 mrad before contact; 150 bring it to 2e-5 rad.
+SOLVER_ITERATIONS = 150
 
 
 class BulletEngine(Engine):
@@ -34,6 +37,7 @@ class BulletEngine(Engine):
         client, body = self.client, self.robot.body
         self._dt = config.timestep
         p.setTimeStep(self._dt, physicsClientId=client)
+        p.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=client)
         p.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
         setup = config.setup
         surface = setup.surface
