@@ -41,11 +41,11 @@ def write_variant(
     outputs = {
         "package.xml": export_package_xml(robot, svhdesc_version()),
         f"{variant.name}.urdf": export_urdf(robot, mesh_uri_prefix(robot)),
-        f"{variant.name}.xml": export_mjcf(robot, variant.settings),
-        "scene.xml": export_scene(robot, f"{variant.name}.xml", variant.settings["scene"]),
+        f"{variant.name}.xml": export_mjcf(robot),
+        "scene.xml": export_scene(robot, f"{variant.name}.xml"),
     }
     with timings.stage("export"):
-        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets, variant.settings))
+        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets))
         for name, data in outputs.items():
             (directory / name).parent.mkdir(parents=True, exist_ok=True)
             (directory / name).write_bytes(data)

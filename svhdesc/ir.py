@@ -7,7 +7,7 @@ in the link frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 Vec3 = tuple[float, float, float]
 
@@ -151,6 +151,25 @@ class ForceSensor:
 
 
 @dataclass(frozen=True)
+class Physics:
+    """World options only the MJCF can carry: solver step, couplings' stiffness, gravity compensation."""
+
+    timestep: float = 0.002
+    noslip_iterations: int = 0
+    coupling_solref: tuple[float, ...] = (0.002, 1.0)
+    coupling_solimp: tuple[float, ...] = (0.99, 0.999, 0.0001, 0.5, 2.0)
+    gravity_compensation: bool = True
+
+
+@dataclass(frozen=True)
+class Ground:
+    """Where scene.xml puts the floor; an arm stands on a pedestal of this radius when the floor is lower."""
+
+    floor_z: float = 0.0
+    pedestal_radius: float = 0.0
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     links: tuple[Link, ...]
@@ -163,7 +182,8 @@ class Robot:
     keyframes: tuple[Keyframe, ...] = ()
     sensors: tuple[ForceSensor, ...] = ()
     excludes: tuple[tuple[str, str], ...] = ()  # link pairs that never collide with each other
-    settings: dict = field(default_factory=dict, hash=False, compare=False)
+    physics: Physics = Physics()
+    ground: Ground = Ground()
 
     def link(self, name: str) -> Link:
         for link in self.links:

@@ -5,18 +5,16 @@ Lives beside the pipeline, not among the stages, because it needs an exporter.
 
 from __future__ import annotations
 
-from typing import Any
-
 from .errors import SvhdescError
 from .export.mjcf import export_mjcf
 from .ir import Robot
 from .stages.assets import Assets
 
 
-def touching_at_rest(robot: Robot, assets: Assets, settings: dict[str, Any]) -> set[tuple[str, str]]:
+def touching_at_rest(robot: Robot, assets: Assets) -> set[tuple[str, str]]:
     import mujoco
 
-    xml = export_mjcf(robot, settings).decode()
+    xml = export_mjcf(robot).decode()
     try:
         model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
     except ValueError as exc:  # MuJoCo's compiler names the element; the IR checks should catch it first

@@ -3,8 +3,7 @@ the compiled MJCF are measured here, then the exporters render them."""
 
 from __future__ import annotations
 
-from typing import Any
-
+from .collision_matrix import collision_matrix
 from .export.moveit import (
     export_joint_limits,
     export_kinematics,
@@ -17,7 +16,6 @@ from .export.ros import export_connector, export_launch, export_node_script
 from .interfaces import NODE_SCRIPT
 from .ir import Robot
 from .stages.assets import Assets
-from .stages.collision_matrix import collision_matrix
 
 EXECUTABLE = 0o755
 
@@ -30,7 +28,7 @@ def servo_damping(mjcf: bytes, assets: Assets) -> dict[str, float]:
     return {model.actuator(a).name: float(-model.actuator_biasprm[a, 2]) for a in range(model.nu)}
 
 
-def ros_outputs(robot: Robot, mjcf: bytes, assets: Assets, settings: dict[str, Any]) -> dict[str, bytes]:
+def ros_outputs(robot: Robot, mjcf: bytes, assets: Assets) -> dict[str, bytes]:
     """Relative path -> content; paths under scripts/ are executables."""
     damping = servo_damping(mjcf, assets)
     outputs = {
@@ -41,7 +39,7 @@ def ros_outputs(robot: Robot, mjcf: bytes, assets: Assets, settings: dict[str, A
     if robot.channels:
         outputs.update(
             {
-                f"config/{robot.name}.srdf": export_srdf(robot, collision_matrix(robot, assets, settings)),
+                f"config/{robot.name}.srdf": export_srdf(robot, collision_matrix(robot, assets)),
                 "config/kinematics.yaml": export_kinematics(robot),
                 "config/joint_limits.yaml": export_joint_limits(robot),
                 "config/moveit_controllers.yaml": export_moveit_controllers(robot),

@@ -33,20 +33,19 @@ def test_scene_holds_home_and_test_for_two_seconds(variant: str) -> None:
 
 def test_gravity_compensation_counts_against_the_effort_limit() -> None:
     model = svhdesc.get("ur5_svh_right")
-    root = etree.parse(str(model.mjcf_path)).getroot()
-    bodies = [b for b in root.iter("body") if b.find("inertial") is not None]
-    assert bodies and all(b.get("gravcomp") == "1" for b in bodies)
+    compiled = svhdesc.load_mujoco("ur5_svh_right", scene=True)
+    assert (compiled.body_gravcomp[1:][compiled.body_mass[1:] > 0] == 1.0).all()
     efforts = {
         j.get("name"): float(j.find("limit").get("effort"))
         for j in etree.parse(str(model.urdf_path)).iter("joint")
         if j.find("limit") is not None
     }
-    for joint in root.find("worldbody").iter("joint"):
-        assert joint.get("actuatorgravcomp") == "true", joint.get("name")
-        low, high = (float(v) for v in joint.get("actuatorfrcrange").split())
-        assert low == -efforts[joint.get("name")] and high == efforts[joint.get("name")]
+    for j in range(compiled.njnt):
+        name = compiled.joint(j).name
+        assert compiled.jnt_actgravcomp[j] == 1, name
+        assert compiled.jnt_actfrclimited[j] == 1, name
+        assert tuple(compiled.jnt_actfrcrange[j]) == (-efforts[name], efforts[name]), name
     # Without it, the arm sags: the compensation is what holds the pose.
-    compiled = svhdesc.load_mujoco("ur5_svh_right", scene=True)
     compiled.body_gravcomp[:] = 0.0
     data = mujoco.MjData(compiled)
     mujoco.mj_resetDataKeyframe(compiled, data, compiled.key("test").id)

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from ..ir import Robot
-from .assets import Assets
+from .ir import Robot
+from .stages.assets import Assets
 
 SAMPLES = 5000  # the Setup Assistant draws 10000; with the NEAR rule 2000 gave the same matrix
 SEED = 0
@@ -59,12 +59,12 @@ def _probe(model: Any, data: Any, mujoco: Any) -> tuple[set[tuple[int, int]], se
 
 
 def collision_matrix(
-    robot: Robot, assets: Assets, settings: dict[str, Any], samples: int = SAMPLES, seed: int = SEED
+    robot: Robot, assets: Assets, samples: int = SAMPLES, seed: int = SEED
 ) -> dict[tuple[str, str], str]:
     """(link, link) -> reason for every pair that need not be checked; pairs in link order."""
     import mujoco
 
-    from ..export.mjcf import export_mjcf
+    from .export.mjcf import export_mjcf
 
     order = {link.name: i for i, link in enumerate(robot.links)}
     colliding = sorted((link.name for link in robot.links if link.collisions), key=order.__getitem__)
@@ -74,7 +74,7 @@ def collision_matrix(
 
     def compiled(excluded: list[tuple[str, str]]) -> tuple[Any, Any]:
         # Pairs already decided are excluded: the samples then only pay for the open ones.
-        xml = export_mjcf(replace(robot, excludes=tuple(excluded)), settings).decode()
+        xml = export_mjcf(replace(robot, excludes=tuple(excluded))).decode()
         model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
         model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
         model.geom_margin[:] = NEAR  # contacts are generated up to NEAR apart
