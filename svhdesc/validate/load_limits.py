@@ -11,6 +11,7 @@ import numpy as np
 from .options import Options
 from .pair import ModelPair
 from .report import Check, fmt, not_run, verdict
+from .simulate import random_target_start
 
 DURATION = 10.0  # s
 TARGET_PERIOD = 0.05  # s between new random targets
@@ -31,14 +32,7 @@ def check_load_limits(pair: ModelPair, options: Options) -> list[Check]:
     limited = [j for j in range(model.njnt) if model.jnt_limited[j]]
     if not tips or not limited:
         return [not_run("load_limits", "no fingertip bodies or no limited joints", bound)]
-    data = mujoco.MjData(model)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if home >= 0:
-        mujoco.mj_resetDataKeyframe(model, data, home)
-    rng = np.random.default_rng(options.seed)
-    low, high = model.actuator_ctrlrange.T.copy()
-    unlimited = model.actuator_ctrllimited == 0
-    low[unlimited], high[unlimited] = -1.0, 1.0
+    data, rng, low, high = random_target_start(model, options.seed)
     adr = np.array([model.jnt_qposadr[j] for j in limited], dtype=int)
     lower, upper = model.jnt_range[limited].T
     dt = model.opt.timestep

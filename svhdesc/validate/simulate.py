@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .options import Options
@@ -21,6 +23,20 @@ def warning_counts(data: object) -> dict[str, int]:
     return {name: n for name, n in counts.items() if n}
 
 
+def random_target_start(model: Any, seed: int) -> tuple[Any, np.random.Generator, np.ndarray, np.ndarray]:
+    """Data at the `home` keyframe, the seeded generator, and each actuator's target range (unit if unlimited)."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    if home >= 0:
+        mujoco.mj_resetDataKeyframe(model, data, home)
+    low, high = model.actuator_ctrlrange.T.copy()
+    unlimited = model.actuator_ctrllimited == 0
+    low[unlimited], high[unlimited] = -1.0, 1.0
+    return data, np.random.default_rng(seed), low, high
+
+
 def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
     """Random targets uniformly across each actuator's ctrlrange, a new one every 0.05 s, from a seeded RNG."""
     import mujoco
@@ -32,14 +48,7 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
             not_run("coupling_tracking", "the MJCF does not compile", coupling_bound),
         ]
     model = pair.model
-    data = mujoco.MjData(model)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if home >= 0:
-        mujoco.mj_resetDataKeyframe(model, data, home)
-    rng = np.random.default_rng(options.seed)
-    low, high = model.actuator_ctrlrange.T.copy()
-    unlimited = model.actuator_ctrllimited == 0
-    low[unlimited], high[unlimited] = -1.0, 1.0  # an unlimited actuator gets a unit range
+    data, rng, low, high = random_target_start(model, options.seed)
     steps = int(round(DURATION / model.opt.timestep))
     period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
     equalities = joint_equalities(model)
