@@ -258,6 +258,25 @@ def test_preemption_cancel_and_partial_hand_goals(ros: dict[str, Any]) -> None:
     assert _positions(ros)["right_hand_Pinky"] == pytest.approx(held, abs=5e-3)  # and held there
 
 
+def test_an_empty_goal_stops_where_the_hand_is(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    rospy = ros["rospy"]
+    moving = _client(ros, HAND)
+    moving.send_goal(_goal(ros, ["right_hand_Ring_Finger"], [[0.9]], [20.0]))
+    wait_for(lambda: moving.get_state() == GoalStatus.ACTIVE, 30, "a goal to start")
+    rospy.sleep(1.5)
+    state, result = _send(ros, HAND, _goal(ros, ["right_hand_Ring_Finger"], [], []))
+    assert state == GoalStatus.SUCCEEDED and result.error_code == 0
+    assert moving.wait_for_result(rospy.Duration(10)) and moving.get_state() == GoalStatus.PREEMPTED
+    held = _positions(ros)["right_hand_Ring_Finger"]
+    rospy.sleep(1.0)
+    assert _positions(ros)["right_hand_Ring_Finger"] == pytest.approx(held, abs=5e-3)
+    # Unknown joints are still refused first, as the controller does.
+    state, result = _send(ros, HAND, _goal(ros, ["no_such_joint"], [], []))
+    assert state == GoalStatus.REJECTED and result.error_code == ros["msgs"].FollowJointTrajectoryResult.INVALID_JOINTS
+
+
 def test_command_topic_and_connector_topics(ros: dict[str, Any]) -> None:
     from std_msgs.msg import Float64
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint

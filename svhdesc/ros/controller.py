@@ -124,8 +124,13 @@ class TrajectoryController:
             points, rejection = self._check(goal.trajectory)
         except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
             points, rejection = [], codes.Rejection(codes.INVALID_GOAL, f"malformed goal: {exc}")
-        if rejection is None and not points:
-            rejection = codes.Rejection(codes.INVALID_GOAL, "the trajectory has no points")
+        if not points and (rejection is None or rejection.code == codes.INVALID_GOAL):
+            # As JointTrajectoryController: valid joints and no points stop the controller where it is.
+            self._preempt("preempted by an empty goal")
+            self._sim.hold(self.joints)
+            handle.set_accepted("")
+            handle.set_succeeded(self._result(codes.SUCCESSFUL, "stopped: empty trajectory"), "stopped")
+            return
         if rejection is None:
             try:
                 trajectory = self._start(goal.trajectory, points)
