@@ -35,7 +35,8 @@ def free_display() -> str:
 
 def private_network(command: list[str]) -> list[str]:
     """Run in a network namespace of its own (loopback only) where we may make one; ROS binds 127.0.0.1 anyway."""
-    probe = subprocess.run(["unshare", "-n", "true"], capture_output=True) if shutil.which("unshare") else None
+    tools = shutil.which("unshare") and shutil.which("ip")
+    probe = subprocess.run(["unshare", "-n", "true"], capture_output=True) if tools else None
     if probe is None or probe.returncode != 0:
         return command
     return ["unshare", "-n", "sh", "-c", 'ip link set lo up && exec "$@"', "sh", *command]
