@@ -213,3 +213,15 @@ def test_bad_connector_files_name_the_culprit(tmp_path: Path) -> None:
         path.write_text(text)
         with pytest.raises(SvhdescError, match=re.escape(culprit)):
             load_connector(path)
+
+
+def test_run_without_an_end_stops_when_the_callback_says_so() -> None:
+    sim = Simulation("svh_right")
+    calls = []
+
+    def three_times(_: Simulation) -> bool:
+        calls.append(sim.time)
+        return len(calls) < 3
+
+    assert sim.run(math.inf, realtime=False, every=0.02, callback=three_times) > 0
+    assert len(calls) == 3 and sim.time == pytest.approx(0.06)

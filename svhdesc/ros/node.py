@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time as wallclock
 import warnings
 from collections import deque
 from collections.abc import Sequence
@@ -253,13 +252,12 @@ class SimNode:
     def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
         """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
         rospy, sim = self._rospy, self.sim
-        chunk = max(1, round(self._clock_period / sim.timestep))
-        begin_wall, begin_sim = wallclock.perf_counter(), sim.time
         next_state = sim.time
         self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
-        while not rospy.is_shutdown() and sim.time - begin_sim < duration - 0.5 * sim.timestep:
-            self._drain()
-            sim.step(chunk)
+        self._drain()
+
+        def between_steps(sim: Any) -> bool:
+            nonlocal next_state
             self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
             for controller in self.controllers:
                 controller.update()
@@ -269,13 +267,14 @@ class SimNode:
             if viewer is not None:
                 viewer.sync()
                 if not viewer.running:
-                    break
-            if realtime:
-                ahead = (sim.time - begin_sim) - (wallclock.perf_counter() - begin_wall)
-                if ahead > 0:
-                    wallclock.sleep(ahead)
-        elapsed = wallclock.perf_counter() - begin_wall
-        return (sim.time - begin_sim) / elapsed if elapsed > 0 else math.inf
+                    return False
+            if rospy.is_shutdown():
+                return False
+            self._drain()  # commands that arrived meanwhile act on the next step
+            return True
+
+        # The runtime's own loop steps one clock period at a time and keeps to the wall clock when asked.
+        return sim.run(duration, realtime=realtime, every=self._clock_period, callback=between_steps)
 
 
 def default_connector(variant: str) -> Path:

@@ -282,8 +282,10 @@ class Simulation:
         chunk = max(1, round(every / self.timestep))
         begin_wall, begin_sim = wallclock.perf_counter(), self.time
         while self.time - begin_sim < duration - 0.5 * self.timestep:
-            remaining = round((duration - (self.time - begin_sim)) / self.timestep)
-            self.step(min(chunk, remaining) if math.isfinite(duration) else chunk)
+            if math.isfinite(duration):
+                self.step(min(chunk, round((duration - (self.time - begin_sim)) / self.timestep)))
+            else:
+                self.step(chunk)
             if callback is not None and callback(self) is False:
                 break
             if realtime:
