@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import filecmp
 import tempfile
 from pathlib import Path
 
 from . import manifest as manifest_file
+from .agreement import file_difference, manifest_difference
 from .config import Config, Variant
 from .decompose.source import HullSource
 from .errors import SvhdescError
@@ -156,14 +156,28 @@ def check(
         variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings)
         differences = []
         for variant in variants:
-            new, old = fresh / variant.name, out / variant.name
-            new_files = {p.relative_to(new) for p in new.rglob("*") if p.is_file()}
-            old_files = {p.relative_to(old) for p in old.rglob("*") if p.is_file()} if old.is_dir() else set()
-            for rel in sorted(new_files | old_files):
-                if rel not in old_files:
-                    differences.append(f"{variant.name}/{rel} (missing)")
-                elif rel not in new_files:
-                    differences.append(f"{variant.name}/{rel} (stale: the build no longer makes it)")
-                elif not filecmp.cmp(new / rel, old / rel, shallow=False):
-                    differences.append(f"{variant.name}/{rel} (differs)")
+            differences += _differences(fresh / variant.name, out / variant.name, variant.name)
+    return differences
+
+
+def _differences(new: Path, old: Path, name: str) -> list[str]:
+    """Files of a fresh build that do not agree with ``old`` (``svhdesc.agreement``: bytes, or numbers within 1e-10)."""
+    new_files = {p.relative_to(new) for p in new.rglob("*") if p.is_file()}
+    old_files = {p.relative_to(old) for p in old.rglob("*") if p.is_file()} if old.is_dir() else set()
+    differences, tolerated = [], set()
+    for rel in sorted(new_files | old_files):
+        if rel not in old_files:
+            differences.append(f"{name}/{rel} (missing)")
+        elif rel not in new_files:
+            differences.append(f"{name}/{rel} (stale: the build no longer makes it)")
+        elif rel.name != manifest_file.FILE:
+            what = file_difference(new / rel, old / rel)
+            if what is not None:
+                differences.append(f"{name}/{rel} (differs: {what})")
+            elif (new / rel).read_bytes() != (old / rel).read_bytes():
+                tolerated.add(rel.as_posix())
+    if manifest_file.FILE in {p.as_posix() for p in new_files & old_files}:
+        what = manifest_difference(manifest_file.path(new), manifest_file.path(old), tolerated)
+        if what is not None:
+            differences.append(f"{name}/{manifest_file.FILE} (differs: {what})")
     return differences

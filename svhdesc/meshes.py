@@ -12,6 +12,8 @@ import numpy as np
 import trimesh
 from lxml import etree
 
+from . import exact
+
 MAX_RAW = 1e6  # largest plausible number in a mesh file (a coordinate of 1 km in millimetres)
 MAX_METRES = 1e3  # largest plausible coordinate in metres
 MERGE_DIGITS = 6  # vertices closer than ~1e-6 m are welded (vendor DAEs are split per material)
@@ -83,7 +85,7 @@ def _read(path: Path) -> trimesh.Trimesh:
     if np.max(np.abs(vertices)) > MAX_METRES:
         raise MeshError(f"{path}: mesh has a vertex {np.max(np.abs(vertices)):.3g} m from its origin (huge)")
     if rotation is not None:
-        vertices = vertices @ rotation.T
+        vertices = exact.matmul(vertices, np.asarray(rotation).T)
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
 
 
@@ -219,8 +221,9 @@ def convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
 def mesh_volume(mesh: trimesh.Trimesh) -> float:
     """Enclosed volume in m^3 of a closed mesh; of its convex hull if the mesh is open."""
     if mesh.is_watertight:
-        return float(abs(mesh.volume))
-    return float(convex_hull(mesh).volume)
+        return abs(exact.mass_properties(mesh.vertices, mesh.faces)[0])
+    hull = convex_hull(mesh)
+    return exact.mass_properties(hull.vertices, hull.faces)[0]
 
 
 def principal_cylinder(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -232,17 +235,14 @@ def principal_cylinder(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray, f
     cylinder has the hull's moment about that axis, r = sqrt(2 I_axis / V).
     """
     hull = convex_hull(mesh)
-    volume = float(hull.volume)
-    centre = np.asarray(hull.center_mass, dtype=np.float64)
-    inertia = np.asarray(hull.moment_inertia, dtype=np.float64) / hull.density  # unit density, about centroid
-    inertia = 0.5 * (inertia + inertia.T)
-    moments, vectors = np.linalg.eigh(inertia)
-    axis = vectors[:, 0] / np.linalg.norm(vectors[:, 0])
+    volume, centre, inertia = exact.mass_properties(hull.vertices, hull.faces)
+    moments, vectors = exact.eigh3(inertia)
+    axis = vectors[:, 0] / exact.norm(vectors[:, 0])
     k = int(np.argmax(np.abs(axis)))
     if axis[k] < 0:
         axis = -axis
     axis = axis + 0.0
-    t = (np.asarray(hull.vertices) - centre) @ axis
+    t = exact.matmul(np.asarray(hull.vertices) - centre, axis[:, None])[:, 0]
     length = float(t.max() - t.min())
     radius = float(np.sqrt(max(2.0 * moments[0] / volume, 0.0)))
     return centre, axis, radius, length

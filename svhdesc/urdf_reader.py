@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from . import exact
 from .errors import SvhdescError
 from .frames import rpy_matrix
 from .ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
@@ -151,7 +152,7 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     if any(origin.rpy):  # the IR keeps tensors in the link frame
         rotation = rpy_matrix(origin.rpy)
-        tensor = rotation @ tensor @ rotation.T
+        tensor = exact.matmul(exact.matmul(rotation, tensor), rotation.T)
     values = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
     return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import subprocess
 import sys
 import tempfile
@@ -18,9 +19,15 @@ VENDOR_UR = SHARED / "vendor" / "ur_description"
 VARIANTS = tuple(load_config(REPO / "config" / "svhdesc.yaml").variants)
 
 
-def run_cli(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess[str]:
+def run_cli(*args: str, cwd: Path = REPO, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """``svhdesc ARGS`` in a subprocess; ``env`` adds to the inherited environment."""
     return subprocess.run(
-        [sys.executable, "-m", "svhdesc.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=600
+        [sys.executable, "-m", "svhdesc.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, **(env or {})},
     )
 
 

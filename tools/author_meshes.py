@@ -81,12 +81,15 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 import trimesh
 from lxml import etree
+
+from svhdesc.exact import perturbed
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"
@@ -107,10 +110,12 @@ def _circle(center: Vec, axis: str, r: float, n: int) -> np.ndarray:
     """Points of a circle of radius ``r`` around ``center`` normal to ``axis``."""
     a = _AXES[axis]
     u, v = _PLANE[a]
-    ang = np.arange(n) * (2.0 * np.pi / n)
+    # Trigonometry differs in the last bit between libraries and CPUs (numpy's AVX-512 sin/cos do), and the hulls
+    # and booleans below turn a last-bit difference into another triangulation: snap to 1e-12 first.
+    ang = [k * (2.0 * math.pi / n) for k in range(n)]
     pts = np.tile(np.asarray(center, dtype=float), (n, 1))
-    pts[:, u] += r * np.cos(ang)
-    pts[:, v] += r * np.sin(ang)
+    pts[:, u] += r * np.round(perturbed(np.array([math.cos(a) for a in ang])), 12)
+    pts[:, v] += r * np.round(perturbed(np.array([math.sin(a) for a in ang])), 12)
     return pts
 
 
@@ -545,10 +550,23 @@ def check_symmetry(mesh: trimesh.Trimesh, axis: str, name: str, tol: float = 1e-
         raise RuntimeError(f"{name}: not symmetric under {axis} -> -{axis} ({d.max():.2e} m)")
 
 
+def vertex_normals(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Area-weighted unit vertex normals rounded to 1e-6, computed element-wise (trimesh's go through BLAS,
+    whose per-CPU kernels changed the last digits, and near-zero components in every digit)."""
+    tri = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)]
+    cross = perturbed(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+    sums = np.zeros((len(mesh.vertices), 3))
+    for corner in range(3):
+        np.add.at(sums, np.asarray(mesh.faces)[:, corner], cross)
+    length = np.sqrt(sums[:, 0] * sums[:, 0] + sums[:, 1] * sums[:, 1] + sums[:, 2] * sums[:, 2])
+    return np.round(sums / length[:, None], 6) + 0.0
+
+
 def collada_bytes(mesh: trimesh.Trimesh, name: str, rgba: Sequence[int]) -> bytes:
     """Export with trimesh, then make the document reproducible and Z-up in metres."""
     m = mesh.copy()
     m.visual = trimesh.visual.ColorVisuals(m, face_colors=np.tile(np.asarray(rgba, np.uint8), (len(m.faces), 1)))
+    m.vertex_normals = vertex_normals(m)
     raw = trimesh.exchange.dae.export_collada(m)
     root = etree.fromstring(raw, etree.XMLParser(remove_blank_text=True))
     ns = root.nsmap[None]

@@ -9,10 +9,11 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .. import exact
 from ..decompose import DecompParams, bounded_hull
 from ..decompose.source import HullSource
 from ..errors import SvhdescError
-from ..frames import matrix_pose, pose_matrix
+from ..frames import axis_frame, matrix_pose, pose_matrix
 from ..ir import Geometry, Robot
 from ..meshes import MeshError, convex_hull, load_mesh, obj_bytes, principal_cylinder, stl_bytes
 from .assets import Assets
@@ -74,15 +75,11 @@ def fit_primitive(mesh: trimesh.Trimesh, shape: str, origin: Geometry) -> Geomet
         frame, size = np.asarray(box.primitive.transform), tuple(float(v) for v in box.primitive.extents)
     else:
         centre, axis, radius, length = principal_cylinder(mesh)
-        axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-        helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
-        u = np.cross(axis, helper)
-        u /= np.linalg.norm(u)
         frame = np.eye(4)
-        frame[:3, :3] = np.column_stack([u, np.cross(axis, u), axis])
+        frame[:3, :3] = axis_frame(axis)
         frame[:3, 3] = centre
         size = (radius, max(length - 2.0 * radius, 1e-4)) if shape == "capsule" else (radius, length)
-    pose = matrix_pose(pose_matrix(origin.origin) @ frame)
+    pose = matrix_pose(exact.matmul(pose_matrix(origin.origin), frame))
     return Geometry(shape, pose, size)
 
 

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import fnmatch
+import math
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 import trimesh
 
+from .. import exact
 from ..errors import SvhdescError
-from ..frames import pose_matrix
+from ..frames import axis_frame, pose_matrix
 from ..ir import Geometry, Inertial, Link, Robot
 from ..meshes import principal_cylinder
 from .assets import Assets
@@ -42,15 +44,10 @@ def link_solid(link: Link, assets: Assets) -> trimesh.Trimesh:
 def cylinder_inertial(solid: trimesh.Trimesh, mass: float) -> Inertial:
     """1/2 m r^2 about the fitted axis, m (3 r^2 + l^2) / 12 about the others, in the link frame."""
     centre, axis, radius, length = principal_cylinder(solid)
-    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(axis, u)
-    rotation = np.column_stack([u, v, axis])
+    rotation = axis_frame(axis)
     transverse = mass * (3.0 * radius**2 + length**2) / 12.0
     principal = np.diag([transverse, transverse, 0.5 * mass * radius**2])
-    tensor = rotation @ principal @ rotation.T
+    tensor = exact.matmul(exact.matmul(rotation, principal), rotation.T)
     tensor = 0.5 * (tensor + tensor.T)
     values = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
     return Inertial(float(mass), tuple(float(c) for c in centre), tuple(float(x) for x in values))  # type: ignore[arg-type]
@@ -83,9 +80,10 @@ def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefi
         remaining = float(budget["total"]) - fixed
         if members and (remaining <= 0 or not free):
             raise SvhdescError(f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}")
-        volume = sum(abs(solids[n].volume) for n in free)
+        volumes = {n: abs(exact.mass_properties(solids[n].vertices, solids[n].faces)[0]) for n in free}
+        volume = math.fsum(volumes[n] for n in free)
         for name in free:
-            masses[name] = remaining * abs(solids[name].volume) / volume
+            masses[name] = remaining * volumes[name] / volume
     links = []
     for link in robot.links:
         if link.name in explicit_full:
