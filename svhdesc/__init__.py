@@ -73,6 +73,8 @@ class Model:
         from .packages import local_mesh_path
 
         tree = etree.fromstring(text.encode())
+        for compiler in tree.iterfind("mujoco/compiler[@meshdir]"):  # MuJoCo's importer, from anywhere too
+            compiler.set("meshdir", str((self.directory / compiler.get("meshdir")).resolve()))
         for mesh in tree.iter("mesh"):
             path = local_mesh_path(mesh.get("filename", ""), self.directory)
             if path is not None:

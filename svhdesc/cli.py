@@ -57,6 +57,37 @@ def _error(message: str) -> None:
     sys.exit(2)
 
 
+# click >= 8.2 raises this for a group run without a command; its message is the whole help text.
+NO_ARGS_IS_HELP: Any = getattr(click.exceptions, "NoArgsIsHelpError", ())
+
+
+class _Group(click.Group):
+    """click's own usage errors (unknown option, bad value, missing argument) as the one ``error:`` line too."""
+
+    def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            result = super().main(*args, standalone_mode=False, **kwargs)
+        except NO_ARGS_IS_HELP as exc:  # a group run bare prints its help, as click does
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            context = getattr(exc, "ctx", None)
+            hint = f" (see '{context.command_path} --help')" if context is not None else ""
+            where = f"{context.command_path}: " if context is not None else ""
+            _error(f"{where}{' '.join(exc.format_message().split())}{hint}")
+        except click.Abort:
+            click.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(result if isinstance(result, int) else 0)  # what standalone mode does: --help, --version
+
+
+def _say(message: str, err: bool = False) -> None:
+    """A line naming a path: a folder name that is not UTF-8 goes out as the bytes it is, not as a traceback."""
+    click.echo(message.encode("utf-8", "surrogateescape"), err=err)
+
+
 config_option = click.option(
     "--config",
     "config_path",
@@ -88,7 +119,7 @@ def _load(config_path: Path | None, packages: tuple[str, ...]) -> tuple[Any, dic
     return config, package_map(explicit)
 
 
-@click.group()
+@click.group(cls=_Group)
 @click.version_option(package_name="svhdesc")
 def main() -> None:
     """svhdesc: compile the SVH hand (and UR5 + SVH) into URDF and MJCF from one source."""
@@ -105,7 +136,7 @@ def main() -> None:
 @config_option
 @package_option
 @click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
-@click.option("--jobs", "-j", type=int, default=0, help="Parallel decompositions (default: one per CPU).")
+@click.option("--jobs", "-j", type=int, default=0, help="Parallel decompositions; 0 (the default): one per CPU.")
 @click.option("--rebuild-collisions", is_flag=True, help="Decompose again, ignoring every cache.")
 @click.option("--timings", "show_timings", is_flag=True, help="Print wall time per build stage.")
 @click.option("--force", is_flag=True, help="Rebuild (or with --check, rebuild and compare) even if up to date.")
@@ -124,6 +155,8 @@ def build_command(
     """Build VARIANTS (all by default) into OUT/<variant>/."""
     from .freshness import stale_variants
 
+    if jobs < 0:
+        raise SvhdescError(f"--jobs must be >= 0 (0: one per CPU), got {jobs}")
     config, package_dirs = _load(config_path, packages)
     out = out or default_out(config_path)
     selected = config.select(list(variants))
@@ -131,7 +164,7 @@ def build_command(
     stale = selected if force or rebuild_collisions else stale_variants(selected, out, package_dirs)
     current = [v.name for v in selected if v not in stale]
     for name in current:
-        click.echo(f"up to date: {out / name}")
+        _say(f"up to date: {out / name}")
     if not stale:
         return
 
@@ -158,13 +191,13 @@ def build_command(
         if result:
             click.echo(f"{len(result)} file(s) differ from {out}:", err=True)
             for line in result:
-                click.echo(f"  {line}", err=True)
+                _say(f"  {line}", err=True)
             sys.exit(1)
         for variant in stale:
-            click.echo(f"up to date: {out / variant.name} (rebuilt and compared)")
+            _say(f"up to date: {out / variant.name} (rebuilt and compared)")
         return
     for name in result:
-        click.echo(f"built {out / name}")
+        _say(f"built {out / name}")
 
 
 @main.command("list")

@@ -6,6 +6,7 @@ transforms, ``<unit>`` and ``<up_axis>`` applied), with duplicate vertices merge
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ class MeshError(ValueError):
 def _collada_frame(path: Path) -> tuple[float, np.ndarray | None]:
     """(metres per unit, rotation to Z up or None) from a COLLADA ``<asset>``."""
     try:
-        root = etree.parse(str(path), etree.XMLParser(resolve_entities=False, no_network=True)).getroot()
+        root = etree.parse(os.fsencode(path), etree.XMLParser(resolve_entities=False, no_network=True)).getroot()
     except etree.XMLSyntaxError as exc:
         raise MeshError(f"{path}: not a readable COLLADA file ({exc})") from None
     unit = root.find("{*}asset/{*}unit")

@@ -56,7 +56,7 @@ def package_name_of(directory: Path) -> str | None:
     from lxml import etree
 
     try:
-        name = etree.parse(str(directory / "package.xml")).findtext("name")
+        name = etree.parse(os.fsencode(directory / "package.xml")).findtext("name")
     except (OSError, etree.XMLSyntaxError):
         return None
     return name.strip() if name else None

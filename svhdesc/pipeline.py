@@ -23,7 +23,7 @@ from .stages.collisions import add_excludes
 from .stages.contact import add_contact
 from .stages.geometry import bake_meshes, decomposition_jobs
 from .stages.inertials import add_inertials, link_solid
-from .stages.semantics import check_driven, check_hand_names, check_keyframes
+from .stages.semantics import check_driven, check_hand_names, check_keyframes, check_unique_names
 from .stages.world import add_world
 from .timings import Timings
 from .urdf_reader import read_urdf
@@ -92,6 +92,7 @@ def compile_variant(
         check_keyframes(robot, variant.settings["keyframes"], _at(variant))
         bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
         robot = add_force_sensor(robot, sections.hand, bounds)
+        check_unique_names(robot, sections.hand, sections.arm)
         robot = add_world(robot, sections.simulation, sections.scene)
     with timings.stage("exclusions"):
         robot = add_excludes(robot, lambda r: touching_at_rest(r, assets))

@@ -52,16 +52,20 @@ def _positive(values: tuple[float, ...], where: str) -> tuple[float, ...]:
     return values
 
 
-def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path) -> str:
+def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nth: int = 1) -> str:
     """``file:line`` of the element ``<tag name=...>`` that expanded to ``name`` (xacro keeps no lines).
 
-    Tries the literal name, then a macro-built one ending in the same suffix (``${prefix}_j3``).
+    Tries the literal name, then a macro-built one ending in the same suffix (``${prefix}_j3``), then a
+    macro call passing that suffix (``<xacro:svh_fixed name="f2"``). ``nth``: the nth such element
+    (the second of a duplicate), else the last one found.
     """
     if name:
-        tails = [name] + [name[i:] for i in range(1, len(name)) if name[i] == "_"]
-        patterns = [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')] + [
-            re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}{re.escape(tail)}"') for tail in tails[1:]
-        ]
+        tails = [name] + [name[i + 1 :] for i in range(1, len(name)) if name[i] == "_"]
+        patterns = (
+            [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')]
+            + [re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}_?{re.escape(tail)}"') for tail in tails[1:]]
+            + [re.compile(rf'<xacro:\w+\b[^>]*\bname="{re.escape(tail)}"') for tail in tails[1:]]
+        )
         texts = []
         for file in files:
             try:
@@ -69,10 +73,14 @@ def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path) ->
             except OSError:
                 continue
         for pattern in patterns:
-            for file, lines in texts:
-                for number, line in enumerate(lines, start=1):
-                    if pattern.search(line):
-                        return f"{file}:{number}"
+            found = [
+                f"{file}:{number}"
+                for file, lines in texts
+                for number, line in enumerate(lines, start=1)
+                if pattern.search(line)
+            ]
+            if found:
+                return found[min(nth, len(found)) - 1]
     return str(fallback)
 
 
@@ -185,7 +193,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     names = [link.name for link in links]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
-        raise SvhdescError(f"{locate(files, 'link', dup, source)}: duplicate link '{dup}'")
+        raise SvhdescError(f"{locate(files, 'link', dup, source, nth=2)}: duplicate link '{dup}'")
     joints = []
     joint_names: set[str] = set()
     for element in root.findall("joint"):
@@ -194,7 +202,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
         if not name:
             raise SvhdescError(f"{where}: a joint needs a name")
         if name in joint_names:
-            raise SvhdescError(f"{where}: duplicate joint '{name}'")
+            raise SvhdescError(f"{locate(files, 'joint', name, source, nth=2)}: duplicate joint '{name}'")
         joint_names.add(name)
         kind = element.get("type")
         if kind not in {"revolute", "continuous", "prismatic", "fixed"}:

@@ -328,7 +328,34 @@ MORE_CASES: list[Case] = [
     ("config_empty", write("mini.yaml", b""), "config must be a mapping"),
 ]
 
-ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES]
+
+def two_fixed_joints_one_name(project: Path) -> None:
+    """A fixed joint renamed to its sibling's name (the issue's f2 -> f1), in the macro."""
+    fixed = (
+        '    <link name="${prefix}_x"/><link name="${prefix}_y"/>\n'
+        '    <joint name="${prefix}_f1" type="fixed"><parent link="${prefix}_t"/><child link="${prefix}_x"/></joint>\n'
+        '    <joint name="${prefix}_f1" type="fixed"><parent link="${prefix}_x"/><child link="${prefix}_y"/></joint>\n'
+    )
+    edit(project / "finger.xacro", "  </xacro:macro>", fixed + "  </xacro:macro>")
+
+
+DUPLICATE_CASES: list[Case] = [
+    # file:line of the second element of the pair
+    ("duplicate_fixed_joint", two_fixed_joints_one_name, "finger.xacro:24: duplicate joint 'right_hand_f1'"),
+    (
+        "duplicate_link",
+        xacro('<link name="${prefix}_t">', '<link name="${prefix}_p">'),
+        "finger.xacro:9: duplicate link",
+    ),
+    # An arm joint that is also a hand channel: two actuators (and transmissions) of one name.
+    (
+        "duplicate_actuator",
+        config("scene: {floor_z: -0.1}", "scene: {floor_z: -0.1}\narm: {enabled: true, joints: [right_hand_A]}"),
+        "mini.yaml:20: duplicate actuator name 'right_hand_A'",
+    ),
+]
+
+ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES, *DUPLICATE_CASES]
 
 
 @pytest.mark.parametrize(("name", "mutate", "match"), ALL, ids=[case[0] for case in ALL])
@@ -419,3 +446,149 @@ def test_read_only_out(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> N
     subprocess.run(["mount", "-o", "remount,ro", str(out)], check=True)
     args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force"]
     fails_cleanly(out, args, "Read-only file system")
+
+
+# --- duplicate names: the issue's own case in the project's and the vendor's xacro, and the final model ---
+
+
+@pytest.mark.parametrize("source", ["project", "vendor"])
+def test_duplicate_fixed_joint_in_the_hand_xacro(tmp_path: Path, source: str) -> None:
+    """The fixed joint f2 renamed to its sibling's name (palm_f1 here, f1 in the vendor's xacro)."""
+    repo = MINI.parents[2]
+    out = tmp_path / "out"
+    shutil.copytree(repo / "generated" / "svh_right", out / "svh_right")
+    if source == "project":
+        project = tmp_path / "project"
+        for part in ("config", "xacro"):
+            shutil.copytree(repo / part, project / part)
+        (project / "meshes").symlink_to(repo / "meshes")
+        edit(project / "xacro" / "svh.xacro", 'name="f2"', 'name="palm_f1"')
+        args = ["build", "svh_right", "--config", str(project / "config" / "svhdesc.yaml")]
+        match = "svh.xacro:116: duplicate joint 'right_hand_palm_f1'"
+    else:
+        vendor = tmp_path / "schunk_svh_driver"
+        shutil.copytree(repo.parent / "shared" / "vendor" / "schunk_svh_driver", vendor)
+        edit(vendor / "description" / "urdf" / "svh.urdf.xacro", 'name="${name}_f2"', 'name="${name}_f1"')
+        args = ["build", "svh_vendor_right", "--config", str(repo / "config" / "vendor.yaml")]
+        args += ["--package", f"schunk_svh_driver={vendor}"]
+        match = "svh.urdf.xacro:442: duplicate joint 'right_hand_f1'"
+    fails_cleanly(out, [*args, "--out", str(out)], match)
+
+
+@pytest.mark.parametrize("kind", ["link", "site", "sensor", "keyframe"])
+def test_duplicate_names_in_the_final_model_are_refused(kind: str) -> None:
+    """Names the stages add (sensor sites, keyframes) are checked in the final model, not only in the xacro."""
+    from dataclasses import replace
+
+    from svhdesc.config import load_config
+    from svhdesc.errors import SvhdescError
+    from svhdesc.ir import ForceSensor, Keyframe, Link, Robot
+    from svhdesc.stages.semantics import check_unique_names
+
+    sections = load_config(MINI / "mini.yaml").select(["mini"])[0].sections
+    robot = Robot(name="r", links=(Link("a"), Link("b")), joints=(), root="a")
+    check_unique_names(robot, sections.hand, sections.arm)  # distinct names pass
+    twice = {
+        "link": replace(robot, links=(Link("a"), Link("a"))),
+        "site": replace(robot, sensors=(ForceSensor("a_force", "a"), ForceSensor("a_force", "b"))),
+        "sensor": replace(robot, sensors=(ForceSensor("a_force", "a"), ForceSensor("a_force", "b"))),
+        "keyframe": replace(robot, keyframes=(Keyframe("home", ()), Keyframe("home", ()))),
+    }[kind]
+    with pytest.raises(SvhdescError, match="duplicate (site|sensor|link|keyframe) name") as raised:
+        check_unique_names(twice, sections.hand, sections.arm)
+    if kind in ("site", "sensor"):
+        assert "mini.yaml:6" in str(raised.value)  # hand.force_sensor
+
+
+# --- click's own usage errors, --jobs ---
+
+
+def all_commands() -> list[list[str]]:
+    import click
+
+    paths: list[list[str]] = []
+
+    def walk(group: click.Group, prefix: list[str]) -> None:
+        for name, command in group.commands.items():
+            paths.append([*prefix, name])
+            if isinstance(command, click.Group):
+                walk(command, [*prefix, name])
+
+    walk(main, [])
+    return paths
+
+
+COMMANDS = [[], *all_commands()]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=[" ".join(c) or "svhdesc" for c in COMMANDS])
+def test_usage_errors_are_one_line(command: list[str]) -> None:
+    if command == ["sim"]:  # takes unknown options as ROS remappings; refuses them itself
+        fails_cleanly(None, [*command, "--bogus"], "unknown variant '--bogus'")
+        return
+    message = fails_cleanly(None, [*command, "--bogus"], "No such option")
+    assert "--bogus" in message and " ".join(["main", *command]) in message
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["build", "--jobs", "many"], "'many' is not a valid integer"),
+        (["build", "-j", "-1"], "--jobs must be >= 0"),
+        (["build", "-j", "-1", "--check"], "--jobs must be >= 0"),
+        (["info"], "Missing argument 'VARIANT'"),
+        (["nosuch"], "No such command 'nosuch'"),
+        (["validate", "--samples", "0"], "--samples"),
+    ],
+)
+def test_bad_option_values_are_one_line(mini: tuple[Path, Path], args: list[str], match: str) -> None:
+    project, out = mini
+    if args[0] == "build":
+        args = [*args, "--config", str(project / "mini.yaml"), "--out", str(out)]
+    fails_cleanly(out, args, match)
+
+
+def test_jobs_zero_means_one_per_cpu(mini: tuple[Path, Path]) -> None:
+    project, out = mini
+    code, stderr, _ = invoke("build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force", "-j", "0")
+    assert code == 0, stderr
+    assert "0 (the default): one per CPU" in CliRunner().invoke(main, ["build", "--help"]).output
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=[" ".join(c) or "svhdesc" for c in COMMANDS])
+def test_help_texts_are_click_s_own(command: list[str]) -> None:
+    ours = CliRunner().invoke(main, [*command, "--help"])
+    clicks = CliRunner().invoke(main, [*command, "--help"], standalone_mode=False)  # click's handling, untouched
+    assert ours.exit_code == 0 and ours.output.startswith("Usage: main")
+    assert ours.output == clicks.output
+
+
+# --- paths that are not UTF-8 (Linux paths are bytes) ---
+
+NOT_UTF8 = "caf\udce9"  # the byte 0xe9 alone, as Python names it
+
+
+def test_config_in_a_non_utf8_folder_builds(tmp_path: Path, good_build: Path) -> None:
+    project = tmp_path / NOT_UTF8 / "mini"
+    shutil.copytree(MINI, project)
+    out = tmp_path / "out"
+    code, stderr, _ = invoke("build", "--config", str(project / "mini.yaml"), "--out", str(out))
+    assert code == 0, stderr
+    assert snapshot(out) == snapshot(good_build)  # the folder's name is in no output
+
+
+def test_out_in_a_non_utf8_folder_builds(tmp_path: Path, good_build: Path) -> None:
+    out = tmp_path / NOT_UTF8 / "out"
+    code, stderr, _ = invoke("build", "--config", str(MINI / "mini.yaml"), "--out", str(out))
+    assert code == 0, stderr
+    assert snapshot(out) == snapshot(good_build)
+
+
+def test_non_utf8_path_inside_the_xacro_is_refused(mini: tuple[Path, Path], tmp_path: Path) -> None:
+    """$(find) puts the folder's name into the XML, which cannot carry it: one line naming it."""
+    project, out = mini
+    package = tmp_path / NOT_UTF8
+    shutil.copytree(MINI, package)
+    edit(project / "mini.xacro", 'filename="cube.stl"/>', 'filename="$(find mypkg)/cube.stl"/>')
+    args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--package", f"mypkg={package}"]
+    fails_cleanly(out, args, "/cube.stl' is not UTF-8")

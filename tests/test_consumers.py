@@ -115,6 +115,47 @@ def test_absolute_urdf_for_tools_without_ros() -> None:
         model.urdf_text("http")  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("uris", ["package", "path"])
+def test_mujoco_imports_the_urdf_as_shipped(uris: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """MuJoCo's own URDF importer: meshes found, the couplings as joint equalities that hold in simulation."""
+    import mujoco
+
+    for name in svhdesc.variants():
+        model = svhdesc.get(name)
+        path = model.urdf_path if uris == "package" else model.absolute_urdf_path("path")
+        monkeypatch.chdir(tmp_path)  # the file alone tells MuJoCo where its meshes are, not the working directory
+        mj = mujoco.MjModel.from_xml_path(str(path))
+        urdf = etree.parse(str(path)).getroot()
+        movable = [j.get("name") for j in urdf.findall("joint") if j.get("type") != "fixed"]
+        assert sorted(mj.joint(i).name for i in range(mj.njnt)) == sorted(movable)
+        assert mj.ngeom == len(urdf.findall("link/collision")) > 0  # every collision mesh loaded
+        mimics = {j.get("name"): j.find("mimic") for j in urdf.findall("joint") if j.find("mimic") is not None}
+        assert mj.neq == len(mimics) > 0
+        for i in range(mj.neq):
+            assert mj.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT
+            follower, leader = mj.joint(mj.eq_obj1id[i]).name, mj.joint(mj.eq_obj2id[i]).name
+            mimic = mimics.pop(follower)
+            assert leader == mimic.get("joint")
+            assert mj.eq_data[i][:2].tolist() == [float(mimic.get("offset")), float(mimic.get("multiplier"))]
+        assert not mimics
+        # The equalities move the followers: channels set mid-range, followers at 0 (off by up to 0.7 rad), 0.3 s
+        # later they are on their channel's image. Without gravity, contacts and damping: a URDF has no actuators to
+        # hold the hand up, nor the MJCF's contact exclusions, armature and stiff equalities, and the drives' damping
+        # on its light links would only slow the followers down (MuJoCo's default equality solref here).
+        mj.opt.gravity[:] = 0
+        mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        mj.dof_damping[:] = 0
+        data = mujoco.MjData(mj)
+        data.qpos[:] = (mj.jnt_range[:, 0] + mj.jnt_range[:, 1]) / 2
+        data.qpos[mj.jnt_qposadr[mj.eq_obj1id]] = 0.0
+        for _ in range(int(0.3 / mj.opt.timestep)):
+            mujoco.mj_step(mj, data)
+        for i in range(mj.neq):
+            follower, leader = mj.jnt_qposadr[mj.eq_obj1id[i]], mj.jnt_qposadr[mj.eq_obj2id[i]]
+            offset, multiplier = mj.eq_data[i][:2]
+            assert abs(data.qpos[follower] - (offset + multiplier * data.qpos[leader])) < 1e-3, name
+
+
 def test_package_xml_is_valid_for_ros() -> None:
     for name in svhdesc.variants():
         package = etree.parse(str(svhdesc.get(name).directory / "package.xml")).getroot()

@@ -151,7 +151,8 @@ def test_pinocchio_parses_mimic_from_the_plain_urdf() -> None:
 
 
 @pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
-def test_pybullet(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("step", [1e-3, None], ids=["1ms", "default_step"])  # None: pybullet's own 1/240 s
+def test_pybullet(variant: str, step: float | None, capfd: pytest.CaptureFixture[str]) -> None:
     p = pytest.importorskip("pybullet")
     robot = svhdesc.load_pybullet(variant)
     try:
@@ -176,7 +177,10 @@ def test_pybullet(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
         for index in robot.joints.values():
             p.resetJointState(body, index, 0.0, physicsClientId=client)
         p.setGravity(0, 0, -9.81, physicsClientId=client)
-        p.setTimeStep(1e-3, physicsClientId=client)
+        if step is not None:
+            p.setTimeStep(step, physicsClientId=client)
+        dt = p.getPhysicsEngineParameters(physicsClientId=client)["fixedTimeStep"]
+        assert step is not None or dt == pytest.approx(1 / 240)
         limits = _limits(variant)
         for name in _leaders(variant):
             info = p.getJointInfo(body, robot.joints[name], physicsClientId=client)
@@ -189,7 +193,7 @@ def test_pybullet(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
                 maxVelocity=info[11],
                 physicsClientId=client,
             )
-        for _ in range(1000):
+        for _ in range(round(1.0 / dt)):  # 1 s: the slowest channel needs 0.7 s at its 1 rad/s
             p.stepSimulation(physicsClientId=client)
         q = {name: p.getJointState(body, i, physicsClientId=client)[0] for name, i in robot.joints.items()}
         hand = [n for n in _leaders(variant) if n.startswith(_prefix(variant))]

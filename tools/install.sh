@@ -3,8 +3,48 @@
 #   bash tools/install.sh          # the compiler: the `build` extra (svhdesc build, info)
 #   bash tools/install.sh ros      # + Debian's ROS 1 for `svhdesc sim --ros` and the roslaunch files
 #   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use
+#   bash tools/install.sh --dry-run [ros|test]   # wait for apt as a run would, print the commands a fresh machine runs
+# apt and dpkg may be busy (a fresh VM runs unattended-upgrades at boot): the script waits for their locks, up to
+# SVHDESC_APT_WAIT seconds (600), saying who holds them, instead of failing with apt's exit 100.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+dry_run=false
+if [ "${1:-}" = --dry-run ]; then dry_run=true; shift; fi
+apt_wait=${SVHDESC_APT_WAIT:-600}
+# The locks apt-get and dpkg take (fcntl locks, which flock(1) cannot see); a test points this elsewhere.
+IFS=: read -r -a apt_locks <<<"${SVHDESC_APT_LOCKS:-/var/lib/dpkg/lock-frontend:/var/lib/dpkg/lock:/var/lib/apt/lists/lock:/var/cache/apt/archives/lock}"
+
+lock_holder() {  # PID of the process holding a POSIX lock on file $1, from /proc/locks (matched by inode)
+  local inode
+  inode=$(stat -c %i "$1" 2>/dev/null) || return 0
+  awk -v inode="$inode" '{
+    for (i = 2; i <= NF; i++) if ($i ~ /^[0-9a-f]+:[0-9a-f]+:[0-9]+$/) {
+      split($i, id, ":"); if (id[3] == inode && $(i - 1) ~ /^[0-9]+$/) { print $(i - 1); exit }
+    }
+  }' /proc/locks
+}
+
+wait_for_apt() {
+  local lock pid holder start=$SECONDS said=false
+  for lock in "${apt_locks[@]}"; do
+    while pid=$(lock_holder "$lock") && [ -n "$pid" ]; do
+      holder=$(tr '\0\n' '  ' <"/proc/$pid/cmdline" 2>/dev/null || true)
+      if [ $((SECONDS - start)) -ge "$apt_wait" ]; then
+        echo "install.sh: $lock still held by PID $pid (${holder% }) after ${apt_wait} s; giving up" >&2
+        exit 100
+      fi
+      $said || echo "install.sh: waiting for $lock, held by PID $pid (${holder% }) ..." >&2
+      said=true
+      sleep "${SVHDESC_APT_POLL:-5}"
+    done
+  done
+  ! $said || echo "install.sh: apt is free after $((SECONDS - start)) s; going on" >&2
+}
+
+run() {  # a command, or in a dry run its line
+  if $dry_run; then echo "+ $*" >&2; else "$@"; fi
+}
+
 extra=build
 packages=(python3 python3-venv git)
 ros=(ros-core python3-rospy python3-actionlib python3-genpy python3-genmsg python3-std-msgs python3-sensor-msgs
@@ -23,13 +63,17 @@ case "${1:-}" in
   *) echo "usage: bash tools/install.sh [ros|test]" >&2; exit 2 ;;
 esac
 missing=()
-for p in "${packages[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+for p in "${packages[@]}"; do $dry_run || dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+$dry_run && missing=("${packages[@]}")  # as on a fresh machine
 if [ ${#missing[@]} -gt 0 ]; then
   export DEBIAN_FRONTEND=noninteractive
-  apt-get update -qq
-  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  wait_for_apt
+  # apt waits too: the lock may be taken again between our look and its start.
+  apt=(apt-get -o "DPkg::Lock::Timeout=$apt_wait")
+  run "${apt[@]}" update -qq
+  run "${apt[@]}" install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 # Debian's own interpreter, whatever `python3` is first on PATH: its ROS 1 Python packages are built for it.
-[ -x .venv/bin/python ] || /usr/bin/python3 -m venv .venv
-.venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"
+[ -x .venv/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv
+run .venv/bin/python -m pip install -q --upgrade pip
+run .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"

@@ -7,7 +7,7 @@ from typing import Any
 
 from ..errors import SvhdescError
 from ..ir import Robot
-from ..settings import Hand
+from ..settings import Arm, Hand
 from ..yamlio import where
 
 LIMIT_TOL = 1e-9
@@ -21,6 +21,31 @@ def check_hand_names(robot: Robot, hand: Hand) -> None:
     tip = hand.force_sensor
     if tip and f"{hand.prefix}_{tip}" not in links:
         raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: no link {hand.prefix}_{tip}")
+
+
+def check_unique_names(robot: Robot, hand: Hand, arm: Arm) -> None:
+    """One name per element of a kind in the final model: MuJoCo refuses a repeat, URDF tools pick one silently.
+
+    Links and joints are checked where the xacro is read; here also whatever the stages added.
+    """
+    joints = [j.name for j in robot.joints]
+    kinds = (
+        ("link", [link.name for link in robot.links], lambda i: robot.name),
+        ("joint", joints, lambda i: robot.joints[i].source or robot.name),
+        # Actuators: one per channel and one per arm.joints entry; a repeat comes from arm.joints.
+        ("actuator", [a.name for a in robot.actuators], lambda i: arm.at("joints")),
+        ("transmission", [t.name for t in robot.transmissions], lambda i: arm.at("joints")),
+        # The force sensor's touch sensor reads a site of its own name.
+        ("site", [s.name for s in robot.sensors], lambda i: hand.at("force_sensor")),
+        ("sensor", [s.name for s in robot.sensors], lambda i: hand.at("force_sensor")),
+        ("keyframe", [k.name for k in robot.keyframes], lambda i: robot.name),
+    )
+    for kind, names, located in kinds:
+        seen: set[str] = set()
+        for index, name in enumerate(names):
+            if name in seen:
+                raise SvhdescError(f"{located(index)}: duplicate {kind} name '{name}' in the model")
+            seen.add(name)
 
 
 def check_driven(robot: Robot) -> None:
