@@ -19,15 +19,53 @@ SHORT = 1.0  # s: ramp 0.2 s, then the fingertip presses; keeps each engine to a
 
 
 def test_mad_matches_hand_computed_series() -> None:
-    # Window 3 by hand: x = 0 3 6 3 -> running means 3, 4 at samples 3, 4 -> |6-3|, |3-4| -> MAD 2.
-    assert experiment.mad(np.array([0.0, 3.0, 6.0, 3.0]), window=3) == pytest.approx(2.0)
-    # Window 10: alternating +-1 has a running mean of 0 -> MAD 1; a ramp x_i = i lags its mean by 4.5.
+    x = np.array([0.0, 3.0, 6.0, 3.0])
+    # Window 3 trailing, by hand: running means 3, 4 at samples 3, 4 -> |6-3|, |3-4| -> MAD 2.
+    assert experiment.mad(x, window=3, placement="trailing") == pytest.approx(2.0)
+    # Centred: means 3, 4 around samples 2, 3 -> |3-3|, |6-4| -> MAD 1.
+    assert experiment.mad(x, window=3, placement="centred") == pytest.approx(1.0)
+    # Window 10: alternating +-1 has a running mean of 0 -> MAD 1; a ramp x_i = i lags its trailing mean by
+    # 4.5, and its centred (MATLAB movmean: 5 before, 4 after) mean by 0.5.
     alternating = (-1.0) ** np.arange(40)
     ramp = np.arange(40, dtype=float)
-    both = experiment.mad(np.column_stack([alternating, ramp, np.full(40, 7.0)]))
-    assert both == pytest.approx([1.0, 4.5, 0.0])
+    both = np.column_stack([alternating, ramp, np.full(40, 7.0)])
+    assert experiment.mad(both, placement="trailing") == pytest.approx([1.0, 4.5, 0.0])
+    assert experiment.mad(both) == pytest.approx([1.0, 0.5, 0.0])
     with pytest.raises(ValueError):
         experiment.mad(np.zeros(5))
+    with pytest.raises(ValueError):
+        experiment.mad(ramp, placement="ahead")
+
+
+def _cumulative_sum_mad(series: np.ndarray, window: int = 10) -> float:
+    """The former implementation (running mean from a cumulative sum): the seeded fault for the test below."""
+    cumulative = np.concatenate([[0.0], np.cumsum(series)])
+    running = (cumulative[window:] - cumulative[:-window]) / window
+    return float(np.abs(series[window - 1 :] - running).mean())
+
+
+@pytest.mark.parametrize("placement", experiment.WINDOWS)
+def test_mad_of_a_constant_trace_is_exactly_zero(placement: str) -> None:
+    # A joint at rest for 2000 samples (1 kHz, 2 s) at an arm angle: no rounding floor.
+    for value in (1.5707, -2.3387, 0.1, 7.3e-5):
+        trace = np.full(2000, value)
+        assert experiment.mad(trace, placement=placement) == 0.0
+    # The cumulative-sum running mean leaves float noise on the same trace (the fault this guards against).
+    assert _cumulative_sum_mad(np.full(2000, 1.5707)) > 0.0
+
+
+@pytest.mark.parametrize("placement", experiment.WINDOWS)
+def test_mad_of_a_sinusoid_is_analytic(placement: str) -> None:
+    # x_i = A sin(w i); the mean of the window i-b .. i+a is A D sin(w (i - (b - a)/2)) with the Dirichlet
+    # factor D = sin(10 w / 2) / (10 sin(w / 2)); x - mean is a sinusoid of amplitude A |1 - D e^{-i w (b-a)/2}|,
+    # whose mean absolute value over whole periods is 2/pi of it.
+    amplitude, period, window = 1e-3, 200, 10
+    w = 2 * np.pi / period
+    trace = 0.3 + amplitude * np.sin(w * np.arange(period * 50 + window - 1))
+    before, after = experiment.window_span(window, placement)
+    dirichlet = np.sin(window * w / 2) / (window * np.sin(w / 2))
+    swing = amplitude * abs(1 - dirichlet * np.exp(-1j * w * (before - after) / 2))
+    assert experiment.mad(trace, placement=placement) == pytest.approx(2 / np.pi * swing, rel=1e-3)
 
 
 def test_schedule_scales_every_phase() -> None:

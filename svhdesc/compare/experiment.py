@@ -13,6 +13,7 @@ the same box in every engine's world frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,19 +35,46 @@ class SetupError(Exception):
     """The model lacks what the experiment needs (touch sensor, keyframes, fingertip geometry)."""
 
 
-def mad(series: np.ndarray, window: int = WINDOW) -> np.ndarray:
-    """Thesis eq. 5.1 per column: mean |x_i - xbar_i|, xbar_i the mean of samples i-window+1..i.
+WINDOWS = ("centred", "trailing")  # where sample i sits in its running-average window (``mad``)
 
-    A 1-D series gives a scalar-shaped array; N is the number of samples that have a full window."""
+
+def window_span(window: int, placement: str) -> tuple[int, int]:
+    """(samples before i, samples after i) in the running average of sample i.
+
+    centred: "the running average around the i-th sample" (eq. 5.1) as MATLAB's ``movmean``, the
+    thesis' tool, takes it: an even window holds window/2 samples before i and window/2 - 1 after.
+    trailing: the window - 1 samples before i."""
+    if placement == "centred":
+        return window // 2, window - 1 - window // 2
+    if placement == "trailing":
+        return window - 1, 0
+    raise ValueError(f"window placement must be one of {', '.join(WINDOWS)}, not {placement!r}")
+
+
+def mad(series: np.ndarray, window: int = WINDOW, placement: str = "centred") -> np.ndarray:
+    """Thesis eq. 5.1 per column: mean |x_i - xbar_i|, xbar_i the mean of the window around sample i.
+
+    Only samples with a full window count (N = len - window + 1). Each window is summed exactly
+    (``math.fsum``) after subtracting the column's first sample, so a trace that holds one value gives
+    exactly 0 and no rounding floor of a cumulative sum (about 1e-13 rad at 2000 samples) remains.
+    A 1-D series gives a scalar-shaped array."""
     series = np.asarray(series, dtype=float)
     flat = series.ndim == 1
     if flat:
         series = series[:, None]
     if len(series) < window:
         raise ValueError(f"eq. 5.1 needs at least {window} samples, got {len(series)}")
-    cumulative = np.cumsum(np.vstack([np.zeros((1, series.shape[1])), series]), axis=0)
-    running = (cumulative[window:] - cumulative[:-window]) / window
-    result = np.abs(series[window - 1 :] - running).mean(axis=0)
+    before, _ = window_span(window, placement)
+    # Near-constant traces: x - x_0 is exact (Sterbenz), and the sums below see only the deviations.
+    shifted = series - series[:1]
+    count = len(series) - window + 1
+    result = np.empty(series.shape[1])
+    for column in range(series.shape[1]):
+        values = shifted[:, column].tolist()
+        deviations = [
+            abs(values[start + before] - math.fsum(values[start : start + window]) / window) for start in range(count)
+        ]
+        result[column] = math.fsum(deviations) / count
     return result[0] if flat else result
 
 

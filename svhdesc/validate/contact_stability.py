@@ -186,6 +186,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         "touch_std_n": float(touch.std()),
         "samples": int(len(force)),
         "window": WINDOW,
+        "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
         "setup": run.setup,
         "warnings": run.warnings,
     }
