@@ -172,3 +172,157 @@ def test_adapter_interface_at_home() -> None:
     assert np.linalg.norm(engine.fingertip_position() - setup.tip_test_position) > 0.3
     finger = engine.model.body("right_hand_t").id
     assert engine.model.body_inertia[finger] == pytest.approx([0.01] * 3)
+
+
+# --- ODE (Gazebo Classic's engine), the thesis' conditions, the stated deviations ---------------------------
+
+
+def _ode_or_skip() -> None:
+    from svhdesc.compare.engine import EngineMissing
+    from svhdesc.compare.ode_engine import OdeEngine
+
+    try:
+        OdeEngine.require()
+    except EngineMissing as exc:
+        pytest.skip(str(exc))
+
+
+def test_ode_defaults_are_gazebos() -> None:
+    # Each constant against sdformat's own physics/surface/joint spec (Debian's libsdformat-dev, test install).
+    from pathlib import Path
+
+    from lxml import etree
+
+    from svhdesc.compare.ode_engine import GAZEBO_ODE
+
+    spec = Path("/usr/share/sdformat12/1.6")
+    if not spec.is_dir():
+        pytest.skip("sdformat's spec files are not installed (apt-get install libsdformat-dev)")
+
+    def default(file: str, path: str) -> float:
+        element = etree.parse(str(spec / file)).getroot()
+        for name in path.split("/"):
+            element = next(e for e in element.findall("element") if e.get("name") == name)
+        return float(element.get("default"))
+
+    physics = {
+        "max_step_size": "max_step_size",
+        "max_contacts": "max_contacts",
+        "iters": "ode/solver/iters",
+        "sor": "ode/solver/sor",
+        "cfm": "ode/constraints/cfm",
+        "erp": "ode/constraints/erp",
+        "contact_max_correcting_vel": "ode/constraints/contact_max_correcting_vel",
+        "contact_surface_layer": "ode/constraints/contact_surface_layer",
+    }
+    for key, path in physics.items():
+        assert GAZEBO_ODE[key] == default("physics.sdf", path), key
+    assert GAZEBO_ODE["kp"] == default("surface.sdf", "contact/ode/kp")
+    assert GAZEBO_ODE["kd"] == default("surface.sdf", "contact/ode/kd")
+    assert GAZEBO_ODE["mu"] == default("surface.sdf", "friction/ode/mu")
+
+
+def test_ode_world_matches_the_model_at_home() -> None:
+    _ode_or_skip()
+    import svhdesc
+    from svhdesc.compare.engine import RunConfig
+    from svhdesc.compare.mujoco_engine import MujocoEngine, finger_links, servo
+    from svhdesc.compare.ode_engine import OdeEngine
+
+    mjcf = svhdesc.get(VARIANT).mjcf_path
+    setup = experiment.define(mjcf)
+    links = finger_links(mjcf)
+    config = RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated))
+    ode, mujoco = OdeEngine(), MujocoEngine()
+    ode.load(config)
+    mujoco.load(config)
+    try:
+        # Lumped bodies, hinge angles and the fingertip frame agree with MuJoCo's kinematics of the MJCF.
+        assert ode.joint_positions() == pytest.approx(setup.home_qpos, abs=1e-12)
+        mujoco.step(setup.home_ctrl)
+        assert ode.fingertip_position() == pytest.approx(mujoco.fingertip_position(), abs=1e-9)
+        # Every coupled joint has its mimic plugin, and the OBJ hulls are there (94 in the URDF).
+        assert {m.follower for m in ode.mimics} == {c.joint for c in setup.couplings}
+        assert len(ode._meshes) > 50
+        # One step with the joint moved by hand: the mimic plugin puts the follower on its leader.
+        leader = setup.couplings[0]
+        ode._rotate(leader.leader, 0.2)
+        ode.step(setup.home_ctrl)
+        assert ode.coupling_residual(setup) < 0.02
+    finally:
+        ode.close()
+
+
+def test_ode_presses_the_surface_at_a_thesis_inertia() -> None:
+    _ode_or_skip()
+    setup, results = run_grid(VARIANT, ["ode"], [0.01], SHORT)
+    result = results[0]
+    assert result.status == STATUS_OK, result.note
+    assert result.settings["timestep"] == pytest.approx(0.001)
+    assert "quickstep, 50 iterations, SOR 1.3" in result.settings["solver"]
+    index = [setup.joints.index(c.joint) for c in setup.couplings]
+    assert np.abs(result.qpos[:, index]).max() > 0.3  # the couplings move
+    assert result.contact_share > 0 and result.force_mean > 0
+    assert np.isfinite(result.mad_average)
+
+
+def test_missing_ode_is_reported_as_not_installed(tmp_path) -> None:
+    script = (
+        "import sys; sys.modules['ode'] = None\n"
+        "from svhdesc.cli import main\n"
+        "main(['compare', '--engines', 'ode,mujoco', '--inertias', 'physical', '--duration', '0.3',"
+        f" '--json', {str(tmp_path / 'r.json')!r}])\n"
+    )
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert "not installed (apt-get install python3-pyode)" in run.stdout
+    results = {r["engine"]: r["status"] for r in json.loads((tmp_path / "r.json").read_text())["results"]}
+    assert results == {"ode": STATUS_MISSING, "mujoco": STATUS_OK}
+
+
+def test_every_deviation_is_stated_and_thesis_setup_follows_the_thesis(tmp_path) -> None:
+    ours = experiment.Conditions()
+    stated = {d["what"] for d in ours.describe()["deviations"]}
+    assert {"surface", "timing", "test pose", "link masses", "sampling", "force"} <= stated
+    thesis = experiment.Conditions(thesis=True, window="trailing")
+    assert {d["what"] for d in thesis.describe()["deviations"]} == {"surface", "timing"}
+    assert (thesis.sample_dt, thesis.link_mass, thesis.force) == (0.02, 0.01, "vertical")
+    assert thesis.test_pose["shoulder_lift_joint"] == 0.4014 and thesis.test_pose["wrist_1_joint"] == 2.3387
+
+    out = tmp_path / "r.json"
+    args = ["--engines", "mujoco", "--inertias", "0.01", "--duration", "1.0", "--thesis-setup", "--window", "trailing"]
+    run = subprocess.run(
+        [sys.executable, "-m", "svhdesc.cli", "compare", *args, "--json", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "window 10 trailing (9 before, 0 after), 50 Hz, vertical force, thesis setup" in run.stdout
+    document = json.loads(out.read_text())
+    block = document["experiment"]
+    assert block["thesis_setup"] is True and block["sample_rate_hz"] == 50 and block["hand_link_mass_kg"] == 0.01
+    assert block["mad_window"].startswith("10 samples, trailing") and block["force"] == "vertical"
+    assert block["test_pose"] == "thesis Table 4.1 as printed"
+    result = document["results"][0]
+    assert result["mad_window"] == "trailing" and result["force"] == "vertical"
+    # 50 Hz over the recorded 0.4 s: 20 samples, 11 of which have a full window.
+    assert result["status"] == STATUS_OK
+
+
+def test_thesis_link_mass_reaches_every_engine() -> None:
+    import svhdesc
+    from svhdesc.compare.engine import RunConfig
+    from svhdesc.compare.mujoco_engine import MujocoEngine, finger_links, hand_links, servo
+
+    mjcf = svhdesc.get(VARIANT).mjcf_path
+    setup = experiment.define(mjcf)
+    links, heavy = finger_links(mjcf), hand_links(mjcf)
+    assert "right_hand_t" in heavy and "right_hand_e1" in heavy and "wrist_3_link" not in heavy
+    config = RunConfig(
+        VARIANT, setup, None, links, servo(mjcf, None, links, setup.actuated, 0.01, heavy), 0.001, 0.01, heavy
+    )
+    engine = MujocoEngine()
+    engine.load(config)
+    masses = {engine.model.body(b).name: engine.model.body_mass[b] for b in range(engine.model.nbody)}
+    assert all(masses[name] == pytest.approx(0.01) for name in heavy)

@@ -525,7 +525,7 @@ class OdeEngine(Engine):
         self._pairs.append(second if first == self.box_id else first)
 
     def step(self, targets: np.ndarray) -> None:
-        ode, lib = self.ode, self.lib
+        lib = self.lib
         # Mimic plugins (WorldUpdateBegin): followers set from their leaders.
         for mimic in self.mimics:
             angle = self._position(mimic.leader) * mimic.multiplier + mimic.offset
@@ -563,14 +563,14 @@ class OdeEngine(Engine):
                 contact.surface.mu = contact.surface.mu2 = self.tip_mu if tip else GAZEBO_ODE["mu"]
                 contact.surface.soft_erp, contact.surface.soft_cfm = self.soft_erp, self.soft_cfm
                 joint = lib.dJointCreateContact(self.world_id, self.contacts, ctypes.byref(contact))
-                # g1 is the box: the normal points into it, so body 2 is the robot's.
+                # The box has no body; ODE then makes the robot's body its body 1 (feedback f1).
                 lib.dJointAttach(joint, None, body)
                 if tip:
                     feedback = _Feedback()
                     lib.dJointSetFeedback(joint, ctypes.byref(feedback))
                     self._feedback.append((feedback, np.array(contact_geom.normal[:3]), True))
         self.world.quickStep(self._dt)
-        self._forces = [np.array(f.f2[:3]) for f, _, _ in self._feedback]
+        self._forces = [np.array(f.f1[:3]) for f, _, _ in self._feedback]
         self._normals = [n for _, n, _ in self._feedback]
         lib.dJointGroupEmpty(self.contacts)
 
