@@ -31,18 +31,17 @@ from __future__ import annotations
 
 import ctypes
 import importlib
-import math
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import libode
 from .engine import Engine, EngineMissing, RunConfig
+from .urdf_tree import Joint, axis_rotation, load_obj, read_urdf, tree
 
 DIST_PACKAGES = "/usr/lib/python3/dist-packages"  # Debian's python3-pyode, outside the venv
-LIBODE = "libode.so.8"
 # Gazebo Classic's ODE defaults, as sdformat 1.6 declares them (physics.sdf: <max_contacts>, <ode><solver>,
 # <ode><constraints>; surface.sdf: <contact><ode> kp, kd, <friction><ode> mu) and joint.sdf's limit
 # cfm/erp. ODE's own SOR default (dxQuickStepParameters w) is Gazebo's 1.3; pyode cannot set it.
@@ -62,38 +61,7 @@ GAZEBO_ODE = {
     "limit_erp": 0.2,
 }
 GRAVITY = (0.0, 0.0, -9.81)
-# ODE 0.16 include/ode/contact.h; Gazebo's pyramid friction model (ODEPhysics::Collide).
-CONTACT_MU2, CONTACT_SOFT_ERP, CONTACT_SOFT_CFM, CONTACT_APPROX1 = 0x001, 0x008, 0x010, 0x7000
 MAX_COLLIDE = 250  # contacts asked of dCollide per pair before keeping the deepest max_contacts
-
-
-class _Surface(ctypes.Structure):
-    _fields_ = [("mode", ctypes.c_int)] + [
-        (name, ctypes.c_double)
-        for name in (
-            "mu mu2 rho rho2 rhoN bounce bounce_vel soft_erp soft_cfm motion1 motion2 motionN slip1 slip2".split()
-        )
-    ]
-
-
-class _ContactGeom(ctypes.Structure):
-    _fields_ = [
-        ("pos", ctypes.c_double * 4),
-        ("normal", ctypes.c_double * 4),
-        ("depth", ctypes.c_double),
-        ("g1", ctypes.c_void_p),
-        ("g2", ctypes.c_void_p),
-        ("side1", ctypes.c_int),
-        ("side2", ctypes.c_int),
-    ]
-
-
-class _Contact(ctypes.Structure):
-    _fields_ = [("surface", _Surface), ("geom", _ContactGeom), ("fdir1", ctypes.c_double * 4)]
-
-
-class _Feedback(ctypes.Structure):
-    _fields_ = [(name, ctypes.c_double * 4) for name in ("f1", "t1", "f2", "t2")]
 
 
 def import_ode() -> Any:
@@ -101,201 +69,6 @@ def import_ode() -> Any:
     if DIST_PACKAGES not in sys.path:
         sys.path.append(DIST_PACKAGES)
     return importlib.import_module("ode")
-
-
-def _libode() -> Any:
-    lib = ctypes.CDLL(LIBODE)
-    void, real, ptr = None, ctypes.c_double, ctypes.c_void_p
-    signatures = {
-        "dGeomTriMeshDataCreate": ([], ptr),
-        "dGeomTriMeshDataBuildDouble": ([ptr, ptr, ctypes.c_int, ctypes.c_int, ptr, ctypes.c_int, ctypes.c_int], void),
-        "dGeomTriMeshDataDestroy": ([ptr], void),
-        "dCreateTriMesh": ([ptr, ptr, ptr, ptr, ptr], ptr),
-        "dHashSpaceCreate": ([ptr], ptr),
-        "dSpaceDestroy": ([ptr], void),
-        "dSpaceSetCleanup": ([ptr, ctypes.c_int], void),
-        "dGeomSetBody": ([ptr, ptr], void),
-        "dGeomGetBody": ([ptr], ptr),
-        "dGeomSetOffsetPosition": ([ptr, real, real, real], void),
-        "dGeomSetOffsetRotation": ([ptr, ctypes.c_double * 12], void),
-        "dBodyGetWorld": ([ptr], ptr),
-        "dCollide": ([ptr, ptr, ctypes.c_int, ptr, ctypes.c_int], ctypes.c_int),
-        "dSpaceCollide2": ([ptr, ptr, ptr, ptr], void),
-        "dJointGroupCreate": ([ctypes.c_int], ptr),
-        "dJointGroupEmpty": ([ptr], void),
-        "dJointGroupDestroy": ([ptr], void),
-        "dJointCreateContact": ([ptr, ptr, ctypes.POINTER(_Contact)], ptr),
-        "dJointAttach": ([ptr, ptr, ptr], void),
-        "dJointSetFeedback": ([ptr, ctypes.POINTER(_Feedback)], void),
-        "dWorldSetQuickStepW": ([ptr, real], void),
-        "dWorldGetQuickStepW": ([ptr], real),
-    }
-    for name, (args, result) in signatures.items():
-        function = getattr(lib, name)
-        function.argtypes, function.restype = args, result
-    return lib
-
-
-# --- the URDF as sdformat reads it ------------------------------------------------------------------------
-
-
-def _origin(element: Any) -> np.ndarray:
-    transform = np.eye(4)
-    origin = element.find("origin") if element is not None else None
-    if origin is None:
-        return transform
-    xyz = [float(v) for v in origin.get("xyz", "0 0 0").split()]
-    roll, pitch, yaw = (float(v) for v in origin.get("rpy", "0 0 0").split())
-    transform[:3, :3] = _rotz(yaw) @ _roty(pitch) @ _rotx(roll)
-    transform[:3, 3] = xyz
-    return transform
-
-
-def _rotx(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _roty(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _rotz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
-def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    x, y, z = axis
-    c, s, t = math.cos(angle), math.sin(angle), 1 - math.cos(angle)
-    return np.array(
-        [
-            [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-            [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
-        ]
-    )
-
-
-@dataclass
-class _Link:
-    name: str
-    mass: float = 0.0
-    com: np.ndarray = field(default_factory=lambda: np.zeros(3))  # in the link frame
-    inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))  # about the com, link axes
-    meshes: list[tuple[Path, np.ndarray]] = field(default_factory=list)  # collision OBJ, link-frame pose
-    mu: float = GAZEBO_ODE["mu"]
-
-
-@dataclass
-class _Joint:
-    name: str
-    kind: str
-    parent: str
-    child: str
-    origin: np.ndarray
-    axis: np.ndarray
-    lower: float
-    upper: float
-    effort: float
-    damping: float
-
-
-@dataclass
-class _Mimic:
-    follower: str
-    leader: str
-    multiplier: float
-    offset: float
-    max_effort: float
-
-
-def _read_urdf(text: str) -> tuple[dict[str, _Link], list[_Joint], list[_Mimic]]:
-    from lxml import etree
-
-    root = etree.fromstring(text.encode())
-    links: dict[str, _Link] = {}
-    for element in root.findall("link"):
-        link = _Link(element.get("name"))
-        inertial = element.find("inertial")
-        if inertial is not None:
-            frame = _origin(inertial)
-            link.mass = float(inertial.find("mass").get("value"))
-            values = inertial.find("inertia")
-            get = {k: float(values.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-            local = np.array(
-                [
-                    [get["ixx"], get["ixy"], get["ixz"]],
-                    [get["ixy"], get["iyy"], get["iyz"]],
-                    [get["ixz"], get["iyz"], get["izz"]],
-                ]
-            )
-            link.com = frame[:3, 3].copy()
-            link.inertia = frame[:3, :3] @ local @ frame[:3, :3].T
-        for collision in element.findall("collision"):
-            mesh = collision.find("geometry/mesh")
-            if mesh is not None:
-                link.meshes.append((Path(mesh.get("filename")), _origin(collision)))
-        links[link.name] = link
-    for gazebo in root.findall("gazebo"):
-        mu = gazebo.find("mu1")
-        if gazebo.get("reference") in links and mu is not None:
-            links[gazebo.get("reference")].mu = float(mu.text)
-    joints = []
-    for element in root.findall("joint"):
-        limit = element.find("limit")
-        dynamics = element.find("dynamics")
-        axis = element.find("axis")
-        joints.append(
-            _Joint(
-                element.get("name"),
-                element.get("type"),
-                element.find("parent").get("link"),
-                element.find("child").get("link"),
-                _origin(element),
-                np.array([float(v) for v in axis.get("xyz").split()]) if axis is not None else np.array([1.0, 0, 0]),
-                float(limit.get("lower", "0")) if limit is not None else -math.inf,
-                float(limit.get("upper", "0")) if limit is not None else math.inf,
-                float(limit.get("effort", "inf")) if limit is not None else math.inf,
-                float(dynamics.get("damping", "0")) if dynamics is not None else 0.0,
-            )
-        )
-    mimics = []
-    for plugin in root.iter("plugin"):
-        if "mimic_joint_plugin" not in plugin.get("filename", ""):
-            continue
-
-        def text(tag: str, default: str, plugin: Any = plugin) -> str:
-            node = plugin.find(tag)
-            return node.text if node is not None else default
-
-        if plugin.find("hasPID") is not None:
-            raise ValueError(f"mimic plugin {plugin.get('name')} has hasPID: its PID mode is not modelled")
-        mimics.append(
-            _Mimic(
-                text("mimicJoint", ""),
-                text("joint", ""),
-                float(text("multiplier", "1")),
-                float(text("offset", "0")),
-                float(text("maxEffort", "nan")),
-            )
-        )
-    return links, joints, mimics
-
-
-def _load_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    mesh = trimesh.load(str(path), force="mesh", process=False)
-    return np.ascontiguousarray(mesh.vertices, dtype=np.float64), np.ascontiguousarray(mesh.faces, dtype=np.int32)
-
-
-def _matrix3(rotation: np.ndarray) -> Any:
-    """An ODE dMatrix3 (3 rows of 4)."""
-    values = np.zeros((3, 4))
-    values[:, :3] = rotation
-    return (ctypes.c_double * 12)(*values.flatten())
 
 
 class OdeEngine(Engine):
@@ -308,7 +81,7 @@ class OdeEngine(Engine):
     def require(cls) -> None:
         try:
             import_ode()
-            ctypes.CDLL(LIBODE)
+            ctypes.CDLL(libode.LIBODE)
         except (ImportError, OSError):
             raise EngineMissing(f"not installed ({cls.install})") from None
 
@@ -316,10 +89,10 @@ class OdeEngine(Engine):
         import svhdesc
 
         ode = self.ode = import_ode()
-        self.lib = lib = _libode()
+        self.lib = lib = libode.load()
         setup = config.setup
         self._dt = config.timestep
-        links, joints, mimics = _read_urdf(svhdesc.get(config.variant).urdf_text("path"))
+        links, joints, mimics = read_urdf(svhdesc.get(config.variant).urdf_text("path"))
         for name, link in links.items():
             if config.mass is not None and name in config.mass_links and link.mass > 0:
                 link.mass = config.mass
@@ -327,29 +100,11 @@ class OdeEngine(Engine):
                 link.inertia = np.eye(3) * config.inertia
         home = dict(zip(setup.joints, setup.home_qpos, strict=True))
 
-        # Link poses at home, and the lumps (movable bodies) fixed joints make.
-        children: dict[str, list[_Joint]] = {}
-        for joint in joints:
-            children.setdefault(joint.parent, []).append(joint)
-        roots = set(links) - {j.child for j in joints}
-        if len(roots) != 1:
-            raise ValueError(f"the URDF has {len(roots)} root links")
-        root = roots.pop()
-        pose, lump = {root: np.eye(4)}, {root: root}
-        order, stack = [], [root]
-        while stack:
-            parent = stack.pop()
-            for joint in children.get(parent, []):
-                motion = np.eye(4)
-                if joint.kind in ("revolute", "continuous"):
-                    motion[:3, :3] = _axis_rotation(joint.axis / np.linalg.norm(joint.axis), home.get(joint.name, 0.0))
-                elif joint.kind != "fixed":
-                    raise ValueError(f"joint {joint.name}: type {joint.kind} is not modelled")
-                pose[joint.child] = pose[parent] @ joint.origin @ motion
-                lump[joint.child] = lump[parent] if joint.kind == "fixed" else joint.child
-                order.append(joint)
-                stack.append(joint.child)
+        pose, lump, order, root = tree(links, joints, home)
 
+        # quickstep reorders its constraints at random from ODE's one global seed: reset it, so a run does not
+        # depend on what ran before it in the process.
+        lib.dRandSetSeed(0)
         self.world = world = ode.World()
         world.setGravity(GRAVITY)
         world.setERP(GAZEBO_ODE["erp"])
@@ -407,7 +162,7 @@ class OdeEngine(Engine):
 
         # Hinges, each at zero angle at home; q = home + sign * angle.
         self.hinges: dict[str, Any] = {}
-        self.joint_info: dict[str, _Joint] = {}
+        self.joint_info: dict[str, Joint] = {}
         self.subtree: dict[str, list[str]] = {}
         for joint in order:
             if joint.kind == "fixed":
@@ -466,8 +221,8 @@ class OdeEngine(Engine):
         self._tip_offset = tip_rotation.T @ (pose[setup.fingertip][:3, 3] - np.array(tip_body.getPosition()))
         self.tip_mu = min(links[setup.fingertip].mu, GAZEBO_ODE["mu"])
         self.contacts = lib.dJointGroupCreate(0)
-        self._buffer = (_ContactGeom * MAX_COLLIDE)()
-        self._feedback: list[tuple[_Feedback, np.ndarray, bool]] = []
+        self._buffer = (libode.ContactGeom * MAX_COLLIDE)()
+        self._feedback: list[tuple[libode.Feedback, np.ndarray, bool]] = []
         self._pairs: list[int] = []
         self._near = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)(self._collect)
         kp, kd, dt = 1.0 / (2.0 / GAZEBO_ODE["kp"]), 2.0 * GAZEBO_ODE["kd"], self._dt
@@ -478,7 +233,7 @@ class OdeEngine(Engine):
         self, path: Path, world_pose: np.ndarray, body_id: int, frame: np.ndarray, com: np.ndarray, lump: str
     ) -> None:
         lib = self.lib
-        vertices, faces = _load_obj(path)
+        vertices, faces = load_obj(path)
         data = lib.dGeomTriMeshDataCreate()
         lib.dGeomTriMeshDataBuildDouble(
             data, vertices.ctypes.data, 3 * 8, len(vertices), faces.ctypes.data, faces.size, 3 * 4
@@ -488,7 +243,7 @@ class OdeEngine(Engine):
         lib.dGeomSetBody(geom, body_id)
         rotation = frame[:3, :3]
         lib.dGeomSetOffsetPosition(geom, *(rotation.T @ (world_pose[:3, 3] - com)))
-        lib.dGeomSetOffsetRotation(geom, _matrix3(rotation.T @ world_pose[:3, :3]))
+        lib.dGeomSetOffsetRotation(geom, libode.matrix3(rotation.T @ world_pose[:3, :3]))
         self.geom_lump[geom] = lump
 
     def _calibrate(self, name: str) -> float:
@@ -503,7 +258,7 @@ class OdeEngine(Engine):
         """Joint::SetPosition with preserveWorldVelocity: turn the joint's subtree, keep world velocities."""
         hinge = self.hinges[name]
         anchor = np.array(hinge.getAnchor())
-        rotation = _axis_rotation(np.array(hinge.getAxis()), delta)
+        rotation = axis_rotation(np.array(hinge.getAxis()), delta)
         for lump in self.subtree[name]:
             body = self.bodies[lump]
             position = np.array(body.getPosition())
@@ -549,7 +304,7 @@ class OdeEngine(Engine):
         self._feedback.clear()
         lib.dSpaceCollide2(self.box_id, self.space, None, self._near)
         for geom in self._pairs:
-            count = lib.dCollide(self.box_id, geom, MAX_COLLIDE, self._buffer, ctypes.sizeof(_ContactGeom))
+            count = lib.dCollide(self.box_id, geom, MAX_COLLIDE, self._buffer, ctypes.sizeof(libode.ContactGeom))
             found = sorted(self._buffer[:count], key=lambda c: -c.depth)[: GAZEBO_ODE["max_contacts"]]
             lump = self.geom_lump[geom]
             body = self.body_ids.get(lump)
@@ -557,16 +312,17 @@ class OdeEngine(Engine):
                 continue
             tip = lump == self.tip_lump
             for contact_geom in found:
-                contact = _Contact()
+                contact = libode.Contact()
                 contact.geom = contact_geom
-                contact.surface.mode = CONTACT_MU2 | CONTACT_SOFT_ERP | CONTACT_SOFT_CFM | CONTACT_APPROX1
+                contact.surface.mode = libode.CONTACT_MU2 | libode.CONTACT_SOFT_ERP | libode.CONTACT_SOFT_CFM
+                contact.surface.mode |= libode.CONTACT_APPROX1
                 contact.surface.mu = contact.surface.mu2 = self.tip_mu if tip else GAZEBO_ODE["mu"]
                 contact.surface.soft_erp, contact.surface.soft_cfm = self.soft_erp, self.soft_cfm
                 joint = lib.dJointCreateContact(self.world_id, self.contacts, ctypes.byref(contact))
                 # The box has no body; ODE then makes the robot's body its body 1 (feedback f1).
                 lib.dJointAttach(joint, None, body)
                 if tip:
-                    feedback = _Feedback()
+                    feedback = libode.Feedback()
                     lib.dJointSetFeedback(joint, ctypes.byref(feedback))
                     self._feedback.append((feedback, np.array(contact_geom.normal[:3]), True))
         self.world.quickStep(self._dt)

@@ -174,6 +174,8 @@ CSV_FIELDS = [
     "status",
     "joint",
     "mad_rad",
+    "mad_window",
+    "force",
     "mad_average_rad",
     "force_mean_n",
     "force_std_n",

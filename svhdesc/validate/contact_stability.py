@@ -4,7 +4,7 @@ The robot is driven from keyframe ``home`` to ``test`` by its position actuators
 RAMP s). A static box is added so that its face sits DEPTH inside the fingertip's collision geometry
 in the ``test`` pose; the servos then press the tip into it. After SETTLE s, joint positions and the
 fingertip's normal force are recorded for RECORD s. Per joint, the mean absolute deviation from the
-running average of the last WINDOW samples (thesis eq. 5.1) must stay below MAD_BOUND; the force
+running average of the WINDOW samples around it (thesis eq. 5.1, centred) must stay below MAD_BOUND; the force
 must be positive and steady. The experiment itself (surface placement, ramp, schedule, eq. 5.1) is
 defined in ``svhdesc.compare.experiment``, shared with ``svhdesc compare``.
 """
