@@ -166,7 +166,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         [name, f"{v['mad_rad']:.3e}", f"{v['mean_rad']:+.6f}", "pass" if v["pass"] else "FAIL"]
         for name, v in joints.items()
     ]
-    text = table(rows, ["joint", "MAD [rad]", "mean [rad]", "status"])
+    text = table(rows, ["joint", "MAD, centred window [rad]", "mean [rad]", "status"])
     text += (
         f"\nnormal force on {run.setup['fingertip']}: mean {force_mean:.4g} N, std {force_std:.3g} N "
         f"({variation:.3%}); touch sensor mean {touch.mean():.4g} N, std {touch.std():.3g} N"
