@@ -39,7 +39,7 @@ import numpy as np
 
 from . import libode
 from .engine import Engine, EngineMissing, RunConfig
-from .urdf_tree import Joint, axis_rotation, load_obj, read_urdf, tree
+from .urdf_tree import Joint, Link, axis_rotation, load_obj, lumped_inertial, read_urdf, tree
 
 DIST_PACKAGES = "/usr/lib/python3/dist-packages"  # Debian's python3-pyode, outside the venv
 # Gazebo Classic's ODE defaults, as sdformat 1.6 declares them (physics.sdf: <max_contacts>, <ode><solver>,
@@ -88,8 +88,8 @@ class OdeEngine(Engine):
     def load(self, config: RunConfig) -> None:
         import svhdesc
 
-        ode = self.ode = import_ode()
-        self.lib = lib = libode.load()
+        self.ode = import_ode()
+        self.lib = libode.load()
         setup = config.setup
         self._dt = config.timestep
         links, joints, mimics = read_urdf(svhdesc.get(config.variant).urdf_text("path"))
@@ -98,10 +98,30 @@ class OdeEngine(Engine):
                 link.mass = config.mass
             if config.inertia is not None and name in config.finger_links:
                 link.inertia = np.eye(3) * config.inertia
-        home = dict(zip(setup.joints, setup.home_qpos, strict=True))
+        self.home = dict(zip(setup.joints, setup.home_qpos, strict=True))
+        pose, lump, order, root = tree(links, joints, self.home)
+        self._make_world()
+        self._make_bodies(links, pose, lump, root)
+        self._make_hinges(order, pose, lump)
+        self.mimics = [m for m in mimics if m.follower in self.hinges and m.leader in self.hinges]
+        for mimic in self.mimics:  # the plugin's SetParam("fmax"): a motor holding zero velocity
+            hinge = self.hinges[mimic.follower]
+            hinge.setParam(self.ode.ParamVel, 0.0)
+            hinge.setParam(self.ode.ParamFMax, mimic.max_effort)
+        self.names = list(setup.joints)
+        self.actuated = list(setup.actuated)
+        self.kp, self.kd, self.limit = config.servo.kp, config.servo.kv, config.servo.limit
+        self.previous_error: np.ndarray | None = None
+        # Gravity feedforward per actuated joint: the weight of every body below it, as a rigid subtree.
+        self.lumps = list(self.bodies)
+        self.masses = np.array([self.bodies[n].getMass().mass for n in self.lumps])
+        self.below = np.array(
+            [[lump in self.subtree[name] for lump in self.lumps] for name in self.actuated], dtype=float
+        )
+        self._make_surface(setup, links, pose, lump)
 
-        pose, lump, order, root = tree(links, joints, home)
-
+    def _make_world(self) -> None:
+        ode, lib = self.ode, self.lib
         # quickstep reorders its constraints at random from ODE's one global seed: reset it, so a run does not
         # depend on what ran before it in the process.
         lib.dRandSetSeed(0)
@@ -113,61 +133,56 @@ class OdeEngine(Engine):
         world.setContactMaxCorrectingVel(GAZEBO_ODE["contact_max_correcting_vel"])
         world.setContactSurfaceLayer(GAZEBO_ODE["contact_surface_layer"])
         self.space = lib.dHashSpaceCreate(None)
+        self.contacts = lib.dJointGroupCreate(0)
+
+    def _make_bodies(
+        self, links: dict[str, Link], pose: dict[str, np.ndarray], lump: dict[str, str], root: str
+    ) -> None:
+        """One ODE body per lump at its centre of mass (ODE's body frame), its hulls as trimesh geoms."""
+        ode, lib = self.ode, self.lib
         self._probes: list[Any] = []  # pyode geoms that only lend their body's dBodyID
         self.bodies: dict[str, Any] = {}
         self.body_ids: dict[str, int] = {}
         self._meshes: list[tuple[Any, Any, Any, Any]] = []
         self.geom_lump: dict[int, str] = {}
         for name in dict.fromkeys(lump[n] for n in pose):
-            members = [n for n in pose if lump[n] == name]
             if name == lump[root]:
-                body = None
-                com = np.zeros(3)
-            else:
-                mass = sum(links[n].mass for n in members)
-                if mass <= 0:
-                    raise ValueError(f"link {name} (with its fixed children) has no mass")
-                com = sum(links[n].mass * (pose[n][:3, :3] @ links[n].com + pose[n][:3, 3]) for n in members) / mass
-                inertia = np.zeros((3, 3))
-                for n in members:
-                    rotation = pose[n][:3, :3]
-                    offset = rotation @ links[n].com + pose[n][:3, 3] - com
-                    inertia += rotation @ links[n].inertia @ rotation.T
-                    inertia += links[n].mass * (offset @ offset * np.eye(3) - np.outer(offset, offset))
-                frame = pose[name][:3, :3]
-                local = frame.T @ inertia @ frame
-                body = ode.Body(world)
-                parameters = ode.Mass()
-                parameters.setParameters(
-                    mass, 0, 0, 0, local[0, 0], local[1, 1], local[2, 2], local[0, 1], local[0, 2], local[1, 2]
-                )
-                body.setMass(parameters)
-                body.setPosition(tuple(com))
-                body.setRotation(tuple(frame.flatten()))
-                probe = ode.GeomSphere(None, 0.001)
-                probe.setBody(body)
-                self._probes.append(probe)
-                self.bodies[name] = body
-                self.body_ids[name] = lib.dGeomGetBody(probe._id())
-            body_id = self.body_ids.get(name)
-            if body_id is None:
                 continue  # the fixed base: static, and never near the surface
+            members = [n for n in pose if lump[n] == name]
+            mass, com, inertia = lumped_inertial(links, pose, members)
+            if mass <= 0:
+                raise ValueError(f"link {name} (with its fixed children) has no mass")
+            frame = pose[name][:3, :3]
+            local = frame.T @ inertia @ frame
+            body = ode.Body(self.world)
+            parameters = ode.Mass()
+            parameters.setParameters(
+                mass, 0, 0, 0, local[0, 0], local[1, 1], local[2, 2], local[0, 1], local[0, 2], local[1, 2]
+            )
+            body.setMass(parameters)
+            body.setPosition(tuple(com))
+            body.setRotation(tuple(frame.flatten()))
+            probe = ode.GeomSphere(None, 0.001)
+            probe.setBody(body)
+            self._probes.append(probe)
+            self.bodies[name] = body
+            self.body_ids[name] = lib.dGeomGetBody(probe._id())
             for member in members:
                 for path, local_pose in links[member].meshes:
-                    world_pose = pose[member] @ local_pose
-                    self._add_mesh(path, world_pose, body_id, pose[name], com, name)
+                    self._add_mesh(path, pose[member] @ local_pose, self.body_ids[name], pose[name], com, name)
         self.world_id = lib.dBodyGetWorld(next(iter(self.body_ids.values())))
         lib.dWorldSetQuickStepW(self.world_id, GAZEBO_ODE["sor"])
-        self.link_lump = lump
 
-        # Hinges, each at zero angle at home; q = home + sign * angle.
+    def _make_hinges(self, order: list[Joint], pose: dict[str, np.ndarray], lump: dict[str, str]) -> None:
+        """Hinges at zero angle at home (q = home + sign * angle), with the URDF's limits in ODE's angle."""
+        ode = self.ode
         self.hinges: dict[str, Any] = {}
         self.joint_info: dict[str, Joint] = {}
         self.subtree: dict[str, list[str]] = {}
         for joint in order:
             if joint.kind == "fixed":
                 continue
-            hinge = ode.HingeJoint(world)
+            hinge = ode.HingeJoint(self.world)
             parent = self.bodies.get(lump[joint.parent])
             hinge.attach(parent if parent is not None else ode.environment, self.bodies[joint.child])
             frame = pose[joint.child]
@@ -181,37 +196,22 @@ class OdeEngine(Engine):
                     below.append(other.child)
             self.subtree[joint.name] = below
         self.sign = {name: self._calibrate(name) for name in self.hinges}
-        self.home = home
         for name, joint in self.joint_info.items():
             if joint.kind != "revolute":
                 continue
-            # ODE's stops are in its own angle: zero at home, signed by ``sign``.
-            q0, hinge = home.get(name, 0.0), self.hinges[name]
+            q0, hinge = self.home.get(name, 0.0), self.hinges[name]
             low, high = sorted(self.sign[name] * (limit - q0) for limit in (joint.lower, joint.upper))
             hinge.setParam(ode.ParamLoStop, low)
             hinge.setParam(ode.ParamHiStop, high)
             hinge.setParam(ode.ParamStopERP, GAZEBO_ODE["limit_erp"])
             hinge.setParam(ode.ParamStopCFM, GAZEBO_ODE["limit_cfm"])
 
-        self.mimics = [m for m in mimics if m.follower in self.hinges and m.leader in self.hinges]
-        for mimic in self.mimics:
-            hinge = self.hinges[mimic.follower]
-            hinge.setParam(ode.ParamVel, 0.0)
-            hinge.setParam(ode.ParamFMax, mimic.max_effort)
-        self.names = list(setup.joints)
-        self.actuated = list(setup.actuated)
-        self.kp, self.kd, self.limit = config.servo.kp, config.servo.kv, config.servo.limit
-        self.previous_error: np.ndarray | None = None
-        # Gravity feedforward per actuated joint: the weight of every body below it, as a rigid subtree.
-        self.lumps = list(self.bodies)
-        self.masses = np.array([self.bodies[n].getMass().mass for n in self.lumps])
-        self.below = np.array(
-            [[lump in self.subtree[name] for lump in self.lumps] for name in self.actuated], dtype=float
-        )
-
-        # The surface: a static box (no body), Gazebo's default surface (mu 1).
+    def _make_surface(
+        self, setup: Any, links: dict[str, Link], pose: dict[str, np.ndarray], lump: dict[str, str]
+    ) -> None:
+        """The surface: a static box (no body) with Gazebo's default surface, and the contact bookkeeping."""
         surface = setup.surface
-        self.box = ode.GeomBox(None, tuple(2.0 * np.asarray(surface.half_size)))
+        self.box = self.ode.GeomBox(None, tuple(2.0 * np.asarray(surface.half_size)))
         self.box.setPosition(tuple(surface.position))
         self.box.setRotation(tuple(np.asarray(surface.rotation).flatten()))
         self.box_id = self.box._id()
@@ -220,7 +220,6 @@ class OdeEngine(Engine):
         tip_rotation = np.array(tip_body.getRotation()).reshape(3, 3)
         self._tip_offset = tip_rotation.T @ (pose[setup.fingertip][:3, 3] - np.array(tip_body.getPosition()))
         self.tip_mu = min(links[setup.fingertip].mu, GAZEBO_ODE["mu"])
-        self.contacts = lib.dJointGroupCreate(0)
         self._buffer = (libode.ContactGeom * MAX_COLLIDE)()
         self._feedback: list[tuple[libode.Feedback, np.ndarray, bool]] = []
         self._pairs: list[int] = []

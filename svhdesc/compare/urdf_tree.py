@@ -193,3 +193,20 @@ def tree(
             order.append(joint)
             stack.append(joint.child)
     return pose, lump, order, root
+
+
+def lumped_inertial(
+    links: dict[str, Link], pose: dict[str, np.ndarray], members: list[str]
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, world centre of mass and world inertia about it of links welded together."""
+    mass = sum(links[n].mass for n in members)
+    if mass <= 0:
+        return 0.0, np.zeros(3), np.zeros((3, 3))
+    centres = {n: pose[n][:3, :3] @ links[n].com + pose[n][:3, 3] for n in members}
+    com = sum(links[n].mass * centres[n] for n in members) / mass
+    inertia = np.zeros((3, 3))
+    for n in members:
+        rotation, offset = pose[n][:3, :3], centres[n] - com
+        inertia += rotation @ links[n].inertia @ rotation.T
+        inertia += links[n].mass * (offset @ offset * np.eye(3) - np.outer(offset, offset))
+    return mass, com, inertia
