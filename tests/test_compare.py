@@ -241,6 +241,12 @@ def test_ode_world_matches_the_model_at_home() -> None:
         assert ode.joint_positions() == pytest.approx(setup.home_qpos, abs=1e-12)
         mujoco.step(setup.home_ctrl)
         assert ode.fingertip_position() == pytest.approx(mujoco.fingertip_position(), abs=1e-9)
+        # Bodies sit at their centres of mass and carry the URDF's mass (the fixed base is static).
+        tip = mujoco.model.body(setup.fingertip).id
+        assert ode.bodies[setup.fingertip].getPosition() == pytest.approx(mujoco.data.xipos[tip], abs=1e-9)
+        moving = sum(ode.masses)
+        static = sum(mujoco.model.body_mass[b] for b in range(mujoco.model.nbody) if mujoco.model.body_weldid[b] == 0)
+        assert moving == pytest.approx(sum(mujoco.model.body_mass) - static, rel=1e-9)
         # Every coupled joint has its mimic plugin, and the OBJ hulls are there (94 in the URDF).
         assert {m.follower for m in ode.mimics} == {c.joint for c in setup.couplings}
         assert len(ode._meshes) > 50

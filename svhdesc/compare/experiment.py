@@ -163,8 +163,8 @@ def deviations(conditions: Conditions) -> list[dict[str, str]]:
         {
             "what": "surface",
             "thesis": "a surface in the Gazebo world, placement not given",
-            "here": f"a box whose face sits {DEPTH * 1e3:g} mm inside the fingertip in the test pose, turned to "
-            "the fingertip's approach direction (17.5 deg from horizontal on ur5_svh_right)",
+            "here": f"a box whose face sits {DEPTH * 1e3:g} mm inside the fingertip in the test pose, square to "
+            "the fingertip's approach direction (its tilt from horizontal: surface_tilt_deg)",
             "why": "the thesis gives no position; a fixed overlap makes every engine press the same amount",
         },
         {
@@ -258,6 +258,7 @@ class Setup:
             "direction_from": self.surface.direction_from,
             "surface_pos": self.surface.position.tolist(),
             "surface_half_size": list(self.surface.half_size),
+            "surface_tilt_deg": float(np.degrees(np.arccos(min(1.0, abs(float(self.surface.normal[2])))))),
             "depth_m": DEPTH,
             "other_bodies_touching_at_test": self.other_bodies_touching_at_test,
             "ramp_s": RAMP,
