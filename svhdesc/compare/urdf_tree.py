@@ -159,10 +159,22 @@ def read_urdf(text: str) -> tuple[dict[str, Link], list[Joint], list[Mimic]]:
 
 
 def load_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    mesh = trimesh.load(str(path), force="mesh", process=False)
-    return np.ascontiguousarray(mesh.vertices, dtype=np.float64), np.ascontiguousarray(mesh.faces, dtype=np.int32)
+    """Vertices and triangles of a Wavefront OBJ hull (v and f records; polygons fanned into triangles)."""
+    vertices: list[list[float]] = []
+    faces: list[list[int]] = []
+    for line in path.read_text().splitlines():
+        fields = line.split()
+        if not fields:
+            continue
+        if fields[0] == "v":
+            vertices.append([float(v) for v in fields[1:4]])
+        elif fields[0] == "f":
+            corners = [int(f.split("/")[0]) for f in fields[1:]]
+            corners = [c - 1 if c > 0 else len(vertices) + c for c in corners]
+            faces += [[corners[0], corners[i], corners[i + 1]] for i in range(1, len(corners) - 1)]
+    if not vertices or not faces:
+        raise ValueError(f"{path}: no triangles")
+    return np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32)
 
 
 def tree(
