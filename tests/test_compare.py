@@ -342,3 +342,20 @@ def test_ode_runs_are_reproducible_in_one_process() -> None:
     _, second = run_grid(VARIANT, ["ode"], [0.01], 0.3)
     assert first[0].status == STATUS_OK
     assert np.array_equal(first[0].qpos, second[0].qpos) and np.array_equal(first[0].force, second[0].force)
+
+
+def test_servo_gains_are_the_generated_connector_gains() -> None:
+    # The README says the PID gains ODE (and DART, Drake) get are connector.yaml's p_gain/d_gain at the
+    # physical setting.
+    import svhdesc
+    import yaml
+
+    from svhdesc.compare.mujoco_engine import finger_links, servo
+
+    model = svhdesc.get(VARIANT)
+    setup = experiment.define(model.mjcf_path)
+    gains = servo(model.mjcf_path, None, finger_links(model.mjcf_path), setup.actuated)
+    connector = yaml.safe_load((model.directory / "config" / "connector.yaml").read_text())["joints"]
+    by_name = {joint["name"]: joint for joint in connector}
+    assert [by_name[n]["p_gain"] for n in setup.actuated] == pytest.approx(gains.kp, rel=1e-12)
+    assert [by_name[n]["d_gain"] for n in setup.actuated] == pytest.approx(gains.kv, rel=1e-12)
