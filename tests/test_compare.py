@@ -347,9 +347,9 @@ def test_ode_runs_are_reproducible_in_one_process() -> None:
 def test_servo_gains_are_the_generated_connector_gains() -> None:
     # The README says the PID gains ODE (and DART, Drake) get are connector.yaml's p_gain/d_gain at the
     # physical setting.
-    import svhdesc
     import yaml
 
+    import svhdesc
     from svhdesc.compare.mujoco_engine import finger_links, servo
 
     model = svhdesc.get(VARIANT)
