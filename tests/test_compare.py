@@ -51,7 +51,9 @@ def test_mad_of_a_constant_trace_is_exactly_zero(placement: str) -> None:
         trace = np.full(2000, value)
         assert experiment.mad(trace, placement=placement) == 0.0
     # The cumulative-sum running mean leaves float noise on the same trace (the fault this guards against).
-    assert _cumulative_sum_mad(np.full(2000, 1.5707)) > 0.0
+    # (The README's "about 1e-13 rad" of rounding floor at arm angles.)
+    assert 1e-14 < _cumulative_sum_mad(np.full(2000, 1.5707)) < 1e-12
+    assert 1e-14 < _cumulative_sum_mad(np.full(2000, -2.3387)) < 1e-12
 
 
 @pytest.mark.parametrize("placement", experiment.WINDOWS)
