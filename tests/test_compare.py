@@ -201,11 +201,14 @@ def test_ode_defaults_are_gazebos() -> None:
     if not spec.is_dir():
         pytest.skip("sdformat's spec files are not installed (apt-get install libsdformat-dev)")
 
-    def default(file: str, path: str) -> float:
+    def text(file: str, path: str) -> str:
         element = etree.parse(str(spec / file)).getroot()
         for name in path.split("/"):
             element = next(e for e in element.findall("element") if e.get("name") == name)
-        return float(element.get("default"))
+        return element.get("default")
+
+    def default(file: str, path: str) -> float:
+        return float(text(file, path))
 
     physics = {
         "max_step_size": "max_step_size",
@@ -222,6 +225,11 @@ def test_ode_defaults_are_gazebos() -> None:
     assert GAZEBO_ODE["kp"] == default("surface.sdf", "contact/ode/kp")
     assert GAZEBO_ODE["kd"] == default("surface.sdf", "contact/ode/kd")
     assert GAZEBO_ODE["mu"] == default("surface.sdf", "friction/ode/mu")
+    assert GAZEBO_ODE["limit_cfm"] == default("joint.sdf", "physics/ode/limit/cfm")
+    assert GAZEBO_ODE["limit_erp"] == default("joint.sdf", "physics/ode/limit/erp")
+    # What the adapter leaves out by default, as Gazebo does: self-collision and implicit joint damping.
+    assert text("model.sdf", "self_collide") == "false"
+    assert text("joint.sdf", "physics/ode/implicit_spring_damper") == "false"
 
 
 def test_ode_world_matches_the_model_at_home() -> None:
