@@ -51,6 +51,27 @@ def table_5_1() -> str:
     )
 
 
+def with_feedforward(variant: str, conditions: Conditions) -> str:
+    """ODE with the gravity feedforward the other engines' servos have, at the thesis' inertias."""
+    from svhdesc.compare import runner
+
+    runner.ENGINES.setdefault("ode-feedforward", "svhdesc.compare.ode_engine:OdeWithFeedforward")
+    _, results = run_grid(variant, ["ode-feedforward"], [0.001, 0.01, 0.1], None, None, conditions)
+    lines = [
+        "| ode + gravity feedforward | average MAD [rad] | force mean +- std [N] | in contact | fingertip error [mm] |",
+        "|---|---|---|---|---|",
+    ]
+    for run in results:
+        if run.status != "ok":
+            lines.append(f"| {run.label} | {run.status} {run.note} | | | |")
+            continue
+        lines.append(
+            f"| {run.label} | {run.mad_average:.2e} | {run.force_mean:.3g} +- {run.force_std:.2g} | "
+            f"{run.contact_share:.0%} | {run.tip_error * 1e3:.1f} |"
+        )
+    return "\n".join(lines)
+
+
 def window_table(results) -> str:  # noqa: ANN001 - runner.Result
     """Average MAD of the same recorded traces with the centred and the trailing window (eq. 5.1's two readings)."""
     import numpy as np
@@ -97,6 +118,8 @@ def main() -> None:
     print(window_table(results))
     print()
     print(table_5_1())
+    print()
+    print(with_feedforward(args.variant, conditions))
     write_json(args.out / "compare.json", args.variant, setup, results, args.duration, conditions)
     write_csv(args.out / "compare.csv", results)
     plot(results, args.out / "plots", args.variant)

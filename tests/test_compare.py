@@ -369,3 +369,16 @@ def test_servo_gains_are_the_generated_connector_gains() -> None:
     by_name = {joint["name"]: joint for joint in connector}
     assert [by_name[n]["p_gain"] for n in setup.actuated] == pytest.approx(gains.kp, rel=1e-12)
     assert [by_name[n]["d_gain"] for n in setup.actuated] == pytest.approx(gains.kv, rel=1e-12)
+
+
+def test_ode_gravity_feedforward_takes_the_arms_weight_off_the_fingertip() -> None:
+    # gazebo_ros_control's PID alone lets the arm's weight lean on the fingertip; the feedforward variant
+    # (what the other engines' servos do) presses with the servo error alone: a few newtons.
+    _ode_or_skip()
+    from svhdesc.compare import runner
+
+    runner.ENGINES.setdefault("ode-feedforward", "svhdesc.compare.ode_engine:OdeWithFeedforward")
+    _, (plain, compensated) = run_grid(VARIANT, ["ode", "ode-feedforward"], [0.01])  # full length: 5 s each
+    assert plain.status == compensated.status == STATUS_OK
+    assert "no gravity compensation" in plain.settings["servo"]
+    assert compensated.force_mean > 0 and plain.force_mean > 5 * compensated.force_mean

@@ -11,13 +11,12 @@ Gazebo Classic, the engine of thesis Table 5.1, runs ODE. This adapter rebuilds 
   the pairs the MJCF excludes; with the surface as the only other body, only robot-surface pairs matter).
 - Solver: quickstep at 1 ms with Gazebo's ODE defaults (``GAZEBO_ODE``, read from sdformat's physics.sdf and
   surface.sdf; ``tests/test_compare.py`` checks them against the installed sdformat spec).
-- Servos: gazebo_ros_control's POSITION_PID law, effort = clamp(p e + d de/dt + g) at the URDF effort
-  limit (i = 0), with the gains of ``engine.Servo``. The generated ros_controllers.yaml declares no
-  ``gazebo_ros_control/pid_gains``; gazebo_ros_control would then set each joint's position outright
-  (Joint::SetPosition), so the PID's gains are the model's kp and kv (connector.yaml's p_gain/d_gain at the
-  physical setting), the ones DART and Drake get. g is a gravity feedforward that gazebo_ros_control does
-  not have: without it the arm (kp 2000 at the shoulder) sags and the fingertip stops 13 mm short of the
-  surface, so nothing would be pressed; the other engines' servos compensate gravity too.
+- Servos: gazebo_ros_control's POSITION_PID law, effort = clamp(p e + d de/dt) at the URDF effort limit
+  (i = 0), and nothing else: no gravity compensation, as in Gazebo. The generated ros_controllers.yaml
+  declares no ``gazebo_ros_control/pid_gains`` (gazebo_ros_control would then set each joint's position
+  outright, Joint::SetPosition), so the gains are the model's kp and kv (connector.yaml's p_gain/d_gain at
+  the physical setting), the ones DART and Drake get. ``OdeWithFeedforward`` adds the gravity feedforward
+  the other engines' servos have (run by benchmarks/compare_bench.py).
 - Couplings: the URDF's roboticsgroup mimic-joint plugins without ``hasPID``: before every step the
   follower is set to multiplier * leader + offset by Joint::SetPosition(0, angle, preserveWorldVelocity=true)
   (the follower's subtree is rotated about the joint, world velocities kept), and its joint motor holds
@@ -76,6 +75,7 @@ class OdeEngine(Engine):
     module = "ode"
     install = "apt-get install python3-pyode"
     distribution = "Py3ODE"
+    gravity_feedforward = False  # gazebo_ros_control has none
 
     @classmethod
     def require(cls) -> None:
@@ -269,6 +269,8 @@ class OdeEngine(Engine):
 
     def _gravity(self) -> np.ndarray:
         """Joint torques that hold the subtrees' weight: -axis . sum m_b (p_b - anchor) x g."""
+        if not self.gravity_feedforward:
+            return np.zeros(len(self.actuated))
         centres = np.array([self.bodies[n].getPosition() for n in self.lumps])
         anchors = np.array([self.hinges[n].getAnchor() for n in self.actuated])
         axes = np.array([self.hinges[n].getAxis() for n in self.actuated])
@@ -362,8 +364,8 @@ class OdeEngine(Engine):
             f"ERP {self.soft_erp:.6g} / CFM {self.soft_cfm:.3g} (surface kp {GAZEBO_ODE['kp']:g}, kd "
             f"{GAZEBO_ODE['kd']:g}); no self-collision (Gazebo's self_collide default)",
             "couplings": "mimic-joint plugin: SetPosition(preserveWorldVelocity) before each step, fmax = maxEffort",
-            "servo": "gazebo_ros_control POSITION_PID (p, d from the model, i 0), effort limits, plus a gravity "
-            "feedforward (gazebo_ros_control has none)",
+            "servo": "gazebo_ros_control POSITION_PID (p, d from the model, i 0), effort limits"
+            + (", plus a gravity feedforward" if self.gravity_feedforward else ", no gravity compensation"),
             "friction": f"pyramid (Approx1), min of the two mu (fingertip {self.tip_mu:g}, surface 1)",
             "damping": "URDF joint damping, explicit",
             "armature": "none (URDF)",
@@ -382,3 +384,10 @@ class OdeEngine(Engine):
         for data, *_ in self._meshes:
             lib.dGeomTriMeshDataDestroy(data)
         self._meshes.clear()
+
+
+class OdeWithFeedforward(OdeEngine):
+    """The PID plus the gravity feedforward DART's and Drake's servos get (MuJoCo's model has its own)."""
+
+    name = "ode-feedforward"
+    gravity_feedforward = True
