@@ -483,9 +483,9 @@ def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_
 @click.argument("variant", default="ur5_svh_right")
 @click.option(
     "--engines",
-    default="mujoco,dart,bullet,drake",
+    default="mujoco,dart,bullet,drake,ode",
     show_default=True,
-    help="Comma-separated engines to run.",
+    help="Comma-separated engines to run (ode: Gazebo Classic's engine, Debian's python3-pyode).",
 )
 @click.option(
     "--inertias",
@@ -500,6 +500,20 @@ def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_
     help="Simulated seconds per run (default: ramp 1 + settle 2 + record 2 = 5 s; shorter runs scale "
     "settle and record).",
 )
+@click.option(
+    "--window",
+    type=click.Choice(["centred", "trailing"]),
+    default="centred",
+    show_default=True,
+    help="Eq. 5.1's 10-sample running average: centred on each sample (the thesis' 'around', MATLAB movmean) "
+    "or trailing it.",
+)
+@click.option(
+    "--thesis-setup",
+    is_flag=True,
+    help="The thesis' conditions: 0.01 kg hand links, Table 4.1's test pose as printed, joint states at 50 Hz, "
+    "the vertical component of the contact force.",
+)
 @click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the results as JSON.")
 @click.option("--csv", "csv_path", type=click.Path(path_type=Path), default=None, help="Write the results as CSV.")
 @click.option(
@@ -511,6 +525,8 @@ def compare_command(
     engines: str,
     inertias: str,
     duration: float | None,
+    window: str,
+    thesis_setup: bool,
     json_path: Path | None,
     csv_path: Path | None,
     plots: Path | None,
@@ -523,6 +539,7 @@ def compare_command(
     """
     import svhdesc
 
+    from .compare.experiment import Conditions
     from .compare.runner import ENGINES, inertia_label, run_grid
     from .extras import require
 
@@ -555,10 +572,11 @@ def compare_command(
         extra = f" ({result.note})" if result.note else ""
         click.echo(f"{result.engine} inertia {inertia_label(result.inertia)}: {result.status}{extra}", err=True)
 
-    setup, results = run_grid(variant, names, settings, duration, progress)
-    click.echo(markdown(setup, results, variant))
+    conditions = Conditions(thesis=thesis_setup, window=window)
+    setup, results = run_grid(variant, names, settings, duration, progress, conditions)
+    click.echo(markdown(setup, results, variant, conditions))
     if json_path is not None:
-        write_json(json_path, variant, setup, results, duration)
+        write_json(json_path, variant, setup, results, duration, conditions)
     if csv_path is not None:
         write_csv(csv_path, results)
     if plots is not None:

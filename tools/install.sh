@@ -56,9 +56,10 @@ case "${1:-}" in
   test)
     extra=test
     # urdfdom's check_urdf, Gazebo's sdformat (ign sdf), offscreen GL for `svhdesc render`, ROS 1 with RViz under
-    # Xvfb (xwd and netpbm take its screenshot; iproute2 brings up loopback in the tests' private network namespace).
+    # Xvfb (xwd and netpbm take its screenshot; iproute2 brings up loopback in the tests' private network namespace);
+    # ODE (python3-pyode, Gazebo Classic's engine) for `svhdesc compare`'s ode engine.
     packages+=(liburdfdom-tools ignition-tools libsdformat-dev libegl1 libgl1-mesa-dri libosmesa6 "${ros[@]}"
-      rviz xvfb x11-apps netpbm iproute2)
+      rviz xvfb x11-apps netpbm iproute2 python3-pyode)
     ;;
   *) echo "usage: bash tools/install.sh [ros|test]" >&2; exit 2 ;;
 esac

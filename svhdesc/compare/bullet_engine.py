@@ -53,6 +53,10 @@ class BulletEngine(Engine):
         self.tip = self.robot.links[setup.fingertip]
         p.changeDynamics(self.surface, -1, lateralFriction=1.0, physicsClientId=client)
         p.changeDynamics(body, self.tip, lateralFriction=setup.friction, physicsClientId=client)
+        if config.mass is not None:
+            for link, index in self.robot.links.items():
+                if link in config.mass_links:
+                    p.changeDynamics(body, index, mass=config.mass, physicsClientId=client)
         if config.inertia is not None:
             for link, index in self.robot.links.items():
                 if link in config.finger_links:
@@ -86,6 +90,16 @@ class BulletEngine(Engine):
             bodyA=self.robot.body, bodyB=self.surface, linkIndexA=self.tip, physicsClientId=self.client
         )
         return float(sum(c[9] for c in contacts))
+
+    def fingertip_force_vector(self) -> np.ndarray:
+        contacts = self.p.getContactPoints(
+            bodyA=self.robot.body, bodyB=self.surface, linkIndexA=self.tip, physicsClientId=self.client
+        )
+        # contactNormalOnB points from the surface (B) to the fingertip (A): the normal force on A.
+        total = np.zeros(3)
+        for c in contacts:
+            total += c[9] * np.array(c[7]) + c[10] * np.array(c[11]) + c[12] * np.array(c[13])
+        return total
 
     def fingertip_position(self) -> np.ndarray:
         state = self.p.getLinkState(

@@ -44,6 +44,11 @@ class DartEngine(Engine):
         for shape in self.tip.getShapeNodes():
             if shape.hasDynamicsAspect():
                 shape.getDynamicsAspect().setFrictionCoeff(setup.friction)
+        if config.mass is not None:
+            for index in range(skeleton.getNumBodyNodes()):
+                body = skeleton.getBodyNode(index)
+                if body.getName() in config.mass_links:
+                    body.setMass(config.mass)
         if config.inertia is not None:
             value = config.inertia
             for index in range(skeleton.getNumBodyNodes()):
@@ -102,6 +107,18 @@ class DartEngine(Engine):
             }
             if bodies == {self.tip.getName(), self.surface_body.getName()}:
                 total += abs(float(np.dot(contact.force, contact.normal)))
+        return total
+
+    def fingertip_force_vector(self) -> np.ndarray:
+        result = self.world.getLastCollisionResult()
+        total = np.zeros(3)
+        for contact in result.getContacts():
+            first = contact.collisionObject1.getShapeFrame().asShapeNode().getBodyNodePtr().getName()
+            second = contact.collisionObject2.getShapeFrame().asShapeNode().getBodyNodePtr().getName()
+            if {first, second} == {self.tip.getName(), self.surface_body.getName()}:
+                # DART's contact force acts on the first object.
+                force = np.asarray(contact.force, dtype=float)
+                total += force if first == self.tip.getName() else -force
         return total
 
     def fingertip_position(self) -> np.ndarray:

@@ -49,15 +49,20 @@ class DrakeEngine(Engine):
         self.context = self.simulator.get_mutable_context()
         self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
         self.tip = plant.GetBodyByName(setup.fingertip, instance)
-        if config.inertia is not None:
-            for link in config.finger_links:
-                if not plant.HasBodyNamed(link, instance):
+        for link in config.finger_links | config.mass_links:
+            if not plant.HasBodyNamed(link, instance):
+                continue
+            body = plant.GetBodyByName(link, instance)
+            mass = config.mass if config.mass is not None and link in config.mass_links else body.default_mass()
+            if config.inertia is not None and link in config.finger_links:
+                rotational = RotationalInertia(*([config.inertia] * 3))
+            else:  # the URDF's, scaled with the mass
+                unit = body.default_spatial_inertia().get_unit_inertia()
+                rotational = unit.ShiftToCenterOfMass(body.default_com()) * mass
+                if mass == body.default_mass():
                     continue
-                body = plant.GetBodyByName(link, instance)
-                inertia = SpatialInertia.MakeFromCentralInertia(
-                    body.default_mass(), body.default_com(), RotationalInertia(*([config.inertia] * 3))
-                )
-                body.SetSpatialInertiaInBodyFrame(self.plant_context, inertia)
+            inertia = SpatialInertia.MakeFromCentralInertia(mass, body.default_com(), rotational)
+            body.SetSpatialInertiaInBodyFrame(self.plant_context, inertia)
         self.starts = [plant.GetJointByName(name, instance).position_start() for name in setup.joints]
         q = plant.GetPositions(self.plant_context)
         q[self.starts] = setup.home_qpos
@@ -112,6 +117,24 @@ class DrakeEngine(Engine):
             ids = {surface.id_M(), surface.id_N()}
             if self.box in ids:
                 total += abs(float(info.F_Ac_W().translational() @ surface.face_normal(0)))
+        return total
+
+    def fingertip_force_vector(self) -> np.ndarray:
+        results = self.plant.get_contact_results_output_port().Eval(self.plant_context)
+        tip, world = self.tip.index(), self.plant.world_body().index()
+        total = np.zeros(3)
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            if {info.bodyA_index(), info.bodyB_index()} == {tip, world}:
+                # contact_force() acts on body B.
+                force = np.asarray(info.contact_force())
+                total += force if info.bodyB_index() == tip else -force
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)
+            surface = info.contact_surface()
+            if self.box in {surface.id_M(), surface.id_N()}:
+                force = np.asarray(info.F_Ac_W().translational())  # on the body of geometry M
+                total += -force if surface.id_M() == self.box else force
         return total
 
     def fingertip_position(self) -> np.ndarray:

@@ -43,6 +43,8 @@ class RunConfig:
     finger_links: frozenset[str]
     servo: Servo
     timestep: float = TIMESTEP
+    mass: float | None = None  # mass of every link in ``mass_links`` [kg]; None: the physical masses
+    mass_links: frozenset[str] = frozenset()
 
 
 class Engine(ABC):
@@ -76,6 +78,10 @@ class Engine(ABC):
     @abstractmethod
     def fingertip_force(self) -> float:
         """Normal force the surface exerts on the fingertip [N] (0 without contact)."""
+
+    def fingertip_force_vector(self) -> np.ndarray:
+        """Total force the surface exerts on the fingertip, world frame [N] (its z: the vertical component)."""
+        raise NotImplementedError(f"{self.name} does not report the contact force vector")
 
     @abstractmethod
     def fingertip_position(self) -> np.ndarray:

@@ -4,7 +4,8 @@ The robot is driven from keyframe ``home`` to ``test`` by position servos (targe
 and the index fingertip presses a fixed box whose face sits DEPTH inside the fingertip's collision
 geometry in the ``test`` pose. After SETTLE s the joints are sampled at a fixed rate for RECORD s; the
 stability measure is the mean absolute deviation of each joint from its WINDOW-sample running average
-(thesis eq. 5.1).
+(thesis eq. 5.1), the window centred on the sample (the thesis' reading) or trailing it. ``Conditions``
+switches to the thesis' own conditions; ``deviations`` lists every way a run differs from the thesis.
 
 Where the surface goes is worked out once, with MuJoCo's kinematics on the MJCF: the URDF and the MJCF
 are generated from the same IR and agree to 1e-15 m (checked by ``validate``), so the box placed here is
@@ -13,6 +14,7 @@ the same box in every engine's world frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,19 +36,46 @@ class SetupError(Exception):
     """The model lacks what the experiment needs (touch sensor, keyframes, fingertip geometry)."""
 
 
-def mad(series: np.ndarray, window: int = WINDOW) -> np.ndarray:
-    """Thesis eq. 5.1 per column: mean |x_i - xbar_i|, xbar_i the mean of samples i-window+1..i.
+WINDOWS = ("centred", "trailing")  # where sample i sits in its running-average window (``mad``)
 
-    A 1-D series gives a scalar-shaped array; N is the number of samples that have a full window."""
+
+def window_span(window: int, placement: str) -> tuple[int, int]:
+    """(samples before i, samples after i) in the running average of sample i.
+
+    centred: "the running average around the i-th sample" (eq. 5.1) as MATLAB's ``movmean``, the
+    thesis' tool, takes it: an even window holds window/2 samples before i and window/2 - 1 after.
+    trailing: the window - 1 samples before i."""
+    if placement == "centred":
+        return window // 2, window - 1 - window // 2
+    if placement == "trailing":
+        return window - 1, 0
+    raise ValueError(f"window placement must be one of {', '.join(WINDOWS)}, not {placement!r}")
+
+
+def mad(series: np.ndarray, window: int = WINDOW, placement: str = "centred") -> np.ndarray:
+    """Thesis eq. 5.1 per column: mean |x_i - xbar_i|, xbar_i the mean of the window around sample i.
+
+    Only samples with a full window count (N = len - window + 1). Each window is summed exactly
+    (``math.fsum``) after subtracting the column's first sample, so a trace that holds one value gives
+    exactly 0 and no rounding floor of a cumulative sum (about 1e-13 rad at 2000 samples) remains.
+    A 1-D series gives a scalar-shaped array."""
     series = np.asarray(series, dtype=float)
     flat = series.ndim == 1
     if flat:
         series = series[:, None]
     if len(series) < window:
         raise ValueError(f"eq. 5.1 needs at least {window} samples, got {len(series)}")
-    cumulative = np.cumsum(np.vstack([np.zeros((1, series.shape[1])), series]), axis=0)
-    running = (cumulative[window:] - cumulative[:-window]) / window
-    result = np.abs(series[window - 1 :] - running).mean(axis=0)
+    before, _ = window_span(window, placement)
+    # Near-constant traces: x - x_0 is exact (Sterbenz), and the sums below see only the deviations.
+    shifted = series - series[:1]
+    count = len(series) - window + 1
+    result = np.empty(series.shape[1])
+    for column in range(series.shape[1]):
+        values = shifted[:, column].tolist()
+        deviations = [
+            abs(values[start + before] - math.fsum(values[start : start + window]) / window) for start in range(count)
+        ]
+        result[column] = math.fsum(deviations) / count
     return result[0] if flat else result
 
 
@@ -74,6 +103,107 @@ def schedule(dt: float, duration: float | None = None) -> tuple[int, int, float]
     scale = 1.0 if duration is None else duration / full
     total = int(round(full * scale / dt))
     return total, total - int(round(RECORD * scale / dt)), RAMP * scale
+
+
+# Thesis Table 4.1, "test" pose of the arm as printed. The model's keyframe has shoulder_lift, wrist_1 and
+# wrist_2 with the opposite sign (the hand then reaches forward and down onto the surface).
+TABLE_4_1_TEST_ARM = {
+    "shoulder_pan_joint": 1.5707,
+    "shoulder_lift_joint": 0.4014,
+    "elbow_joint": 0.9250,
+    "wrist_1_joint": 2.3387,
+    "wrist_2_joint": 1.5794,
+    "wrist_3_joint": 0.0,
+}
+THESIS_LINK_MASS = 0.01  # kg, every hand link of the thesis' models
+THESIS_SAMPLE_DT = 0.02  # s: joint_state_controller publish_rate 50 (thesis Sec. 4.1.3)
+SAMPLE_DT = 0.001  # s: this project's sampling, every physics step
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """The thesis' conditions (``--thesis-setup``) or this project's choices, and the eq. 5.1 window."""
+
+    thesis: bool = False
+    window: str = "centred"
+
+    @property
+    def sample_dt(self) -> float:
+        return THESIS_SAMPLE_DT if self.thesis else SAMPLE_DT
+
+    @property
+    def link_mass(self) -> float | None:
+        return THESIS_LINK_MASS if self.thesis else None
+
+    @property
+    def force(self) -> str:
+        """'vertical': the z component of the contact force (thesis Fig. 5.16); 'normal': along the contact normal."""
+        return "vertical" if self.thesis else "normal"
+
+    @property
+    def test_pose(self) -> dict[str, float]:
+        return dict(TABLE_4_1_TEST_ARM) if self.thesis else {}
+
+    def describe(self) -> dict[str, Any]:
+        before, after = window_span(WINDOW, self.window)
+        return {
+            "thesis_setup": self.thesis,
+            "mad_window": f"{WINDOW} samples, {self.window} ({before} before, {after} after each sample)",
+            "sample_rate_hz": round(1.0 / self.sample_dt),
+            "hand_link_mass_kg": self.link_mass if self.link_mass is not None else "physical (the mass budget)",
+            "force": self.force,
+            "test_pose": "thesis Table 4.1 as printed" if self.thesis else "the model's test keyframe",
+            "deviations": deviations(self),
+        }
+
+
+def deviations(conditions: Conditions) -> list[dict[str, str]]:
+    """Every way this run differs from the thesis' chapter-5 experiment, with the reason."""
+    items = [
+        {
+            "what": "surface",
+            "thesis": "a surface in the Gazebo world, placement not given",
+            "here": f"a box whose face sits {DEPTH * 1e3:g} mm inside the fingertip in the test pose, square to "
+            "the fingertip's approach direction (its tilt from horizontal: surface_tilt_deg)",
+            "why": "the thesis gives no position; a fixed overlap makes every engine press the same amount",
+        },
+        {
+            "what": "timing",
+            "thesis": "not given",
+            "here": f"ramp {RAMP:g} s home -> test, settle {SETTLE:g} s, record {RECORD:g} s",
+            "why": "the thesis records 'when the index finger touches the surface'",
+        },
+    ]
+    if not conditions.thesis:
+        items += [
+            {
+                "what": "test pose",
+                "thesis": "Table 4.1: shoulder_lift +0.4014, wrist_1 +2.3387, wrist_2 +1.5794",
+                "here": "keyframe test: shoulder_lift -0.4014, wrist_1 -2.3387, wrist_2 -1.5794",
+                "why": "with the printed signs the fingertip approaches sideways and a surface placed in its "
+                "path also touches the index finger's other links (run --thesis-setup: the experiment block "
+                "gives the direction and the other bodies touching); with the keyframe's it comes down from above",
+            },
+            {
+                "what": "link masses",
+                "thesis": f"{THESIS_LINK_MASS:g} kg per hand link",
+                "here": "the mass budget: 1.3 kg hand, UR5 masses",
+                "why": "the real hand weighs 1.3 kg",
+            },
+            {
+                "what": "sampling",
+                "thesis": "joint states at 50 Hz (joint_state_controller)",
+                "here": f"{1 / SAMPLE_DT:g} Hz, every physics step",
+                "why": "eq. 5.1 over every step sees the fastest oscillation an engine produces",
+            },
+            {
+                "what": "force",
+                "thesis": "vertical component of the contact force",
+                "here": "force along the contact normal",
+                "why": "the normal force is what presses; the surface is tilted, so the vertical part is smaller",
+            },
+        ]
+    return items
 
 
 @dataclass(frozen=True)
@@ -128,6 +258,7 @@ class Setup:
             "direction_from": self.surface.direction_from,
             "surface_pos": self.surface.position.tolist(),
             "surface_half_size": list(self.surface.half_size),
+            "surface_tilt_deg": float(np.degrees(np.arccos(min(1.0, abs(float(self.surface.normal[2])))))),
             "depth_m": DEPTH,
             "other_bodies_touching_at_test": self.other_bodies_touching_at_test,
             "ramp_s": RAMP,
@@ -331,12 +462,25 @@ def bodies_touching(model: Any, data: Any, box: int) -> set[str]:
     }
 
 
-def define(mjcf_path: Any) -> Setup:
-    """The experiment for the model in ``mjcf_path``: joints, servo targets, couplings and the surface."""
+def _override_test(model: Any, test: int, pose: dict[str, float]) -> None:
+    """Set joints of keyframe ``test`` (positions and the servo targets of those joints)."""
+    for name, value in pose.items():
+        joint = model.joint(name)
+        model.key_qpos[test][joint.qposadr[0]] = value
+        for actuator in range(model.nu):
+            if int(model.actuator_trnid[actuator, 0]) == joint.id:
+                model.key_ctrl[test][actuator] = value
+
+
+def define(mjcf_path: Any, test_pose: dict[str, float] | None = None) -> Setup:
+    """The experiment for the model in ``mjcf_path``: joints, servo targets, couplings and the surface.
+
+    ``test_pose`` overrides joints of the ``test`` keyframe (``--thesis-setup``: Table 4.1 as printed)."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(mjcf_path))
     home, test = keyframes(model)
+    _override_test(model, test, test_pose or {})
     tip, _ = fingertip(model)
     surface = place_surface(model)
     joints = scalar_joints(model)
@@ -350,6 +494,7 @@ def define(mjcf_path: Any) -> Setup:
     spec = mujoco.MjSpec.from_file(str(mjcf_path))
     add_surface(spec, surface)
     scene = spec.compile()
+    _override_test(scene, test, test_pose or {})
     box = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_GEOM, SURFACE)
     sdata = mujoco.MjData(scene)
     mujoco.mj_resetDataKeyframe(scene, sdata, test)

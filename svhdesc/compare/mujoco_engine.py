@@ -10,11 +10,21 @@ from . import experiment
 from .engine import Engine, RunConfig, Servo
 
 
-def _spec(mjcf_path: Any, inertia: float | None, finger_links: frozenset[str]) -> Any:
-    """The MJCF as an MjSpec, finger links given a diagonal inertia when asked (masses unchanged)."""
+def _spec(
+    mjcf_path: Any,
+    inertia: float | None,
+    finger_links: frozenset[str],
+    mass: float | None = None,
+    mass_links: frozenset[str] = frozenset(),
+) -> Any:
+    """The MJCF as an MjSpec, finger links given a diagonal inertia and ``mass_links`` a mass when asked."""
     import mujoco
 
     spec = mujoco.MjSpec.from_file(str(mjcf_path))
+    if mass is not None:
+        for body in spec.bodies:
+            if body.name in mass_links:
+                body.mass = mass
     if inertia is not None:
         for body in spec.bodies:
             if body.name not in finger_links:
@@ -44,9 +54,26 @@ def finger_links(mjcf_path: Any) -> frozenset[str]:
     return frozenset(result)
 
 
-def servo(mjcf_path: Any, inertia: float | None, links: frozenset[str], actuated: list[str]) -> Servo:
+def hand_links(mjcf_path: Any) -> frozenset[str]:
+    """Every hand body with mass (driver naming ``<side>_hand_...``): the links the thesis gives 0.01 kg each."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(mjcf_path))
+    return frozenset(
+        model.body(b).name for b in range(1, model.nbody) if "_hand_" in model.body(b).name and model.body_mass[b] > 0
+    )
+
+
+def servo(
+    mjcf_path: Any,
+    inertia: float | None,
+    links: frozenset[str],
+    actuated: list[str],
+    mass: float | None = None,
+    mass_links: frozenset[str] = frozenset(),
+) -> Servo:
     """kp, kv and force limit of the MJCF's position actuators, kv as MuJoCo resolves dampratio."""
-    model = _spec(mjcf_path, inertia, links).compile()
+    model = _spec(mjcf_path, inertia, links, mass, mass_links).compile()
     order = [model.actuator(i).name for i in range(model.nu)]
     joints = [model.joint(int(model.actuator_trnid[i, 0])).name for i in range(model.nu)]
     if joints != actuated:
@@ -68,7 +95,9 @@ class MujocoEngine(Engine):
         import svhdesc
 
         setup = config.setup
-        spec = _spec(svhdesc.get(config.variant).mjcf_path, config.inertia, config.finger_links)
+        spec = _spec(
+            svhdesc.get(config.variant).mjcf_path, config.inertia, config.finger_links, config.mass, config.mass_links
+        )
         experiment.add_surface(spec, setup.surface)
         spec.option.timestep = config.timestep
         self.model = spec.compile()
@@ -105,6 +134,19 @@ class MujocoEngine(Engine):
                 mujoco.mj_contactForce(self.model, self.data, index, self._wrench)
                 total += self._wrench[0]
         return float(total)
+
+    def fingertip_force_vector(self) -> np.ndarray:
+        import mujoco
+
+        total = np.zeros(3)
+        for index, contact in enumerate(self.data.contact[: self.data.ncon]):
+            pair = (contact.geom1, contact.geom2)
+            if self.box in pair and (pair[0] in self.tip_geoms or pair[1] in self.tip_geoms):
+                mujoco.mj_contactForce(self.model, self.data, index, self._wrench)
+                # The contact frame's rows are its axes; the force acts from geom1 on geom2.
+                force = contact.frame.reshape(3, 3).T @ self._wrench[:3]
+                total += force if contact.geom1 == self.box else -force
+        return total
 
     def fingertip_position(self) -> np.ndarray:
         return self.data.xpos[self.tip].copy()

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .experiment import Setup, moving_mean
+from .experiment import Conditions, Setup, moving_mean, window_span
 from .runner import FORCE_WINDOW, STATUS_MISSING, STATUS_OK, TIP_TOLERANCE, Result
 
 
@@ -28,10 +28,21 @@ def _column(result: Result) -> str:
     return f"{result.engine} {result.label}"
 
 
-def markdown(setup: Setup, results: list[Result], variant: str) -> str:
+def heading(conditions: Conditions) -> str:
+    """What the figures were computed with: the window, the sampling, the force, the setup."""
+    before, after = window_span(10, conditions.window)
+    setup = "thesis setup (--thesis-setup)" if conditions.thesis else "this project's setup"
+    return (
+        f"eq. 5.1, window 10 {conditions.window} ({before} before, {after} after), "
+        f"{1 / conditions.sample_dt:g} Hz, {conditions.force} force, {setup}"
+    )
+
+
+def markdown(setup: Setup, results: list[Result], variant: str, conditions: Conditions | None = None) -> str:
     """Rows: the actuated joints (as Tables 5.1/5.2 list them), their average, then force, coupling,
     pose, speed and status; one column per engine x inertia."""
-    lines = [f"### {variant}: MAD of joint positions [rad] (eq. 5.1, window 10), fingertip on the surface", ""]
+    conditions = conditions or Conditions()
+    lines = [f"### {variant}: MAD of joint positions [rad] ({heading(conditions)}), fingertip on the surface", ""]
     header = ["joint", *(_column(r) for r in results)]
     lines.append("| " + " | ".join(header) + " |")
     lines.append("|" + "---|" * len(header))
@@ -62,6 +73,10 @@ def markdown(setup: Setup, results: list[Result], variant: str) -> str:
     row("real-time factor", [_fixed(r.realtime_factor, 2) for r in results])
     row("status", [_status(r) for r in results])
     lines.append("")
+    lines.append("Deviations from the thesis:")
+    for item in conditions.describe()["deviations"]:
+        lines.append(f"- **{item['what']}**: thesis {item['thesis']}; here {item['here']} ({item['why']})")
+    lines.append("")
     lines.append("Solver settings:")
     seen: set[str] = set()
     for result in results:
@@ -77,13 +92,15 @@ THESIS = {"Gazebo (thesis Table 5.1)": {"0.001": 5.1799e-05, "0.01": 5.8178e-06,
 THESIS_MUJOCO = {"MuJoCo (thesis Table 5.2, 0.09 kg robot)": {"0.1": 4.3664e-17}}
 
 
-def summary(results: list[Result]) -> str:
+def summary(results: list[Result], conditions: Conditions | None = None) -> str:
     """Compact tables for the README: average MAD per engine x inertia beside the thesis' averages, then
     force, coupling, pose and speed per run."""
+    conditions = conditions or Conditions()
     labels = list(dict.fromkeys(r.label for r in results))
     engines = list(dict.fromkeys(r.engine for r in results))
     by_key = {(r.engine, r.label): r for r in results}
-    lines = ["| average MAD [rad] | " + " | ".join(f"inertia {label}" for label in labels) + " |"]
+    lines = [f"({heading(conditions)})", ""]
+    lines.append("| average MAD [rad] | " + " | ".join(f"inertia {label}" for label in labels) + " |")
     lines.append("|" + "---|" * (len(labels) + 1))
     for name, row in {**THESIS, **THESIS_MUJOCO}.items():
         lines.append(f"| {name} | " + " | ".join(_sci(row.get(label)) for label in labels) + " |")
@@ -130,11 +147,20 @@ def _percent(value: float) -> str:
     return "-" if not math.isfinite(value) else f"{value:.0%}"
 
 
-def write_json(path: Path, variant: str, setup: Setup, results: list[Result], duration: float | None) -> None:
+def write_json(
+    path: Path,
+    variant: str,
+    setup: Setup,
+    results: list[Result],
+    duration: float | None,
+    conditions: Conditions | None = None,
+) -> None:
+    conditions = conditions or Conditions()
+    experiment = setup.description(results[0].settings.get("timestep", 0.001) if results else 0.001)
     document: dict[str, Any] = {
         "variant": variant,
         "duration_s": duration,
-        "experiment": setup.description(results[0].settings.get("timestep", 0.001) if results else 0.001),
+        "experiment": {**experiment, **conditions.describe()},
         "friction": setup.friction,
         "results": [r.summary() for r in results],
     }
@@ -148,6 +174,8 @@ CSV_FIELDS = [
     "status",
     "joint",
     "mad_rad",
+    "mad_window",
+    "force",
     "mad_average_rad",
     "force_mean_n",
     "force_std_n",

@@ -18,8 +18,8 @@ ENGINES: dict[str, str] = {
     "dart": "svhdesc.compare.dart_engine:DartEngine",
     "bullet": "svhdesc.compare.bullet_engine:BulletEngine",
     "drake": "svhdesc.compare.drake_engine:DrakeEngine",
+    "ode": "svhdesc.compare.ode_engine:OdeEngine",
 }
-SAMPLE_DT = 0.001  # s: every engine is sampled at this fixed rate (eq. 5.1 runs over the samples)
 FORCE_WINDOW = 100  # samples in the force's moving mean (plots)
 EXPLODED_RAD = 50.0  # rad: a joint this far out has left any physical range
 EXPLODED_M = 5.0  # m: a fingertip this far from its test position has left the robot's reach
@@ -60,6 +60,8 @@ class Result:
     realtime_factor: float = math.nan
     simulated_s: float = 0.0
     failed_at: float | None = None  # s, when the run blew up
+    window: str = "centred"  # eq. 5.1's window placement
+    force_kind: str = "normal"  # the contact force recorded: along the normal, or its vertical component
     # Time series for the plots (not written to JSON/CSV).
     time: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     qpos: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
@@ -77,6 +79,8 @@ class Result:
             "status": self.status,
             "note": self.note,
             "mad_rad": self.mad,
+            "mad_window": self.window,
+            "force": self.force_kind,
             "mad_average_rad": _finite(self.mad_average),
             "force_mean_n": _finite(self.force_mean),
             "force_std_n": _finite(self.force_std),
@@ -97,10 +101,14 @@ def _finite(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
-def run_one(name: str, config: RunConfig, duration: float | None) -> Result:
+def run_one(
+    name: str, config: RunConfig, duration: float | None, conditions: experiment.Conditions | None = None
+) -> Result:
     """Run one engine; a missing engine, a failed load or an explosion is a result, not an exception."""
     setup = config.setup
+    conditions = conditions or experiment.Conditions()
     result = Result(name, config.inertia, STATUS_OK, joints=list(setup.joints), actuated=list(setup.actuated))
+    result.window, result.force_kind = conditions.window, conditions.force
     cls = engine_class(name)
     try:
         cls.require()
@@ -111,7 +119,7 @@ def run_one(name: str, config: RunConfig, duration: float | None) -> Result:
     try:
         engine.load(config)
         result.settings = engine.settings()
-        _simulate(engine, config, duration, result)
+        _simulate(engine, config, duration, result, conditions)
     except Exception as exc:  # noqa: BLE001 - an engine that cannot load this model is a result
         result.status, result.note = STATUS_FAILED, f"{type(exc).__name__}: {exc}".strip()[:300]
     finally:
@@ -129,11 +137,14 @@ def _exploded(q: np.ndarray, tip: np.ndarray, reference: np.ndarray) -> str | No
     return None
 
 
-def _simulate(engine: Engine, config: RunConfig, duration: float | None, result: Result) -> None:
+def _simulate(
+    engine: Engine, config: RunConfig, duration: float | None, result: Result, conditions: experiment.Conditions
+) -> None:
     setup = config.setup
     dt = engine.timestep
     total, record_from, ramp_s = experiment.schedule(dt, duration)
-    every = max(1, int(round(SAMPLE_DT / dt)))
+    every = max(1, int(round(conditions.sample_dt / dt)))
+    vertical = conditions.force == "vertical"
     samples = total // every
     qpos = np.zeros((samples, len(setup.joints)))
     force, tips = np.zeros(samples), np.zeros((samples, 3))
@@ -156,7 +167,8 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
             result.note = f"{problem} at t = {(step + 1) * dt:.3f} s"
             break
         if count < samples:
-            qpos[count], force[count], tips[count] = q, engine.fingertip_force(), tip
+            pressed = float(engine.fingertip_force_vector()[2]) if vertical else engine.fingertip_force()
+            qpos[count], force[count], tips[count] = q, pressed, tip
             count += 1
     wall = time.perf_counter() - started
     result.simulated_s = (step + 1) * dt
@@ -172,7 +184,7 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
             result.worst_coupling = setup.couplings[worst[1]].joint
             # Free motion (home -> test before the first touch) shows whether the engine keeps the
             # coupling at all; under the pressing load a soft constraint may also give way.
-            touching = np.flatnonzero(result.force > 0)
+            touching = np.flatnonzero(result.force != 0)
             free = residual[: touching[0]] if len(touching) else residual
             result.coupling_residual_free = float(free.max()) if len(free) else math.nan
         else:
@@ -183,12 +195,12 @@ def _simulate(engine: Engine, config: RunConfig, duration: float | None, result:
     if len(recorded) < experiment.WINDOW:
         result.status, result.note = STATUS_FAILED, f"only {len(recorded)} samples recorded; run longer"
         return
-    deviations = experiment.mad(recorded)
+    deviations = experiment.mad(recorded, placement=conditions.window)
     result.mad = {name: float(v) for name, v in zip(setup.joints, deviations, strict=True)}
     result.mad_average = float(np.mean([result.mad[name] for name in setup.actuated]))
     pressed = result.force[result.record_from :]
     result.force_mean, result.force_std = float(pressed.mean()), float(pressed.std())
-    result.contact_share = float(np.mean(pressed > 0))
+    result.contact_share = float(np.mean(pressed != 0))
     tip_mean = tips[result.record_from : count].mean(axis=0)
     result.tip_error = float(np.linalg.norm(tip_mean - setup.tip_test_position))
     result.reached = result.tip_error <= TIP_TOLERANCE
@@ -200,20 +212,24 @@ def run_grid(
     inertias: list[float | None],
     duration: float | None = None,
     progress: Any = None,
+    conditions: experiment.Conditions | None = None,
 ) -> tuple[experiment.Setup, list[Result]]:
     """Every engine x inertia; ``progress(result)`` is called after each run."""
     import svhdesc
 
-    from .mujoco_engine import finger_links, servo
+    from .mujoco_engine import finger_links, hand_links, servo
 
+    conditions = conditions or experiment.Conditions()
     mjcf = svhdesc.get(variant).mjcf_path
-    setup = experiment.define(mjcf)
+    setup = experiment.define(mjcf, conditions.test_pose)
     links = finger_links(mjcf)
+    heavy = hand_links(mjcf) if conditions.link_mass is not None else frozenset()
     results = []
     for inertia in inertias:
-        config = RunConfig(variant, setup, inertia, links, servo(mjcf, inertia, links, setup.actuated), TIMESTEP)
+        gains = servo(mjcf, inertia, links, setup.actuated, conditions.link_mass, heavy)
+        config = RunConfig(variant, setup, inertia, links, gains, TIMESTEP, conditions.link_mass, heavy)
         for name in engines:
-            result = run_one(name, config, duration)
+            result = run_one(name, config, duration, conditions)
             results.append(result)
             if progress is not None:
                 progress(result)

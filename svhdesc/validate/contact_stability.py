@@ -4,7 +4,7 @@ The robot is driven from keyframe ``home`` to ``test`` by its position actuators
 RAMP s). A static box is added so that its face sits DEPTH inside the fingertip's collision geometry
 in the ``test`` pose; the servos then press the tip into it. After SETTLE s, joint positions and the
 fingertip's normal force are recorded for RECORD s. Per joint, the mean absolute deviation from the
-running average of the last WINDOW samples (thesis eq. 5.1) must stay below MAD_BOUND; the force
+running average of the WINDOW samples around it (thesis eq. 5.1, centred) must stay below MAD_BOUND; the force
 must be positive and steady. The experiment itself (surface placement, ramp, schedule, eq. 5.1) is
 defined in ``svhdesc.compare.experiment``, shared with ``svhdesc compare``.
 """
@@ -166,7 +166,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         [name, f"{v['mad_rad']:.3e}", f"{v['mean_rad']:+.6f}", "pass" if v["pass"] else "FAIL"]
         for name, v in joints.items()
     ]
-    text = table(rows, ["joint", "MAD [rad]", "mean [rad]", "status"])
+    text = table(rows, ["joint", "MAD, centred window [rad]", "mean [rad]", "status"])
     text += (
         f"\nnormal force on {run.setup['fingertip']}: mean {force_mean:.4g} N, std {force_std:.3g} N "
         f"({variation:.3%}); touch sensor mean {touch.mean():.4g} N, std {touch.std():.3g} N"
@@ -186,6 +186,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         "touch_std_n": float(touch.std()),
         "samples": int(len(force)),
         "window": WINDOW,
+        "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
         "setup": run.setup,
         "warnings": run.warnings,
     }
