@@ -263,7 +263,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, contact_stability; or groups: parsers, mass, coupling, margins. Default: all.",
+    "self_collision, contact_stability, fingertip_force, grasps; or groups: parsers, mass, coupling, margins, "
+    "hand. Default: all.",
 )
 @click.option(
     "--samples",

@@ -11,6 +11,7 @@ from ..errors import SvhdescError
 from .collision import check_self_collision
 from .contact_stability import check_contact_stability
 from .coupling import check_coupling_spec, check_limits
+from .fingertip_force import check_fingertip_force
 from .kinematics import check_kinematics
 from .load_limits import check_load_limits
 from .mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
@@ -42,6 +43,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_load_limits, ("load_limits",)),
     (check_self_collision, ("self_collision",)),
     (check_contact_stability, ("contact_stability",)),
+    (check_fingertip_force, ("fingertip_force",)),
 ]
 CHECK_NAMES: tuple[str, ...] = tuple(name for _, names in STAGES for name in names)
 GROUPS: dict[str, tuple[str, ...]] = {
