@@ -8,6 +8,7 @@ from __future__ import annotations
 import sys
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 from functools import wraps
 from pathlib import Path
 from typing import Any
@@ -263,8 +264,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, contact_stability, fingertip_force, grasps; or groups: parsers, mass, coupling, margins, "
-    "hand. Default: all.",
+    "self_collision, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps; or groups: "
+    "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
 @click.option(
     "--samples",
@@ -274,6 +275,13 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     help="Random configurations for the kinematics check.",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of every random draw.")
+@click.option(
+    "--vendor-meshes",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="The vendor's schunk_svh_driver folder, whose visual meshes collision_fidelity compares the collision "
+    "geometry with (default: ../shared/vendor/schunk_svh_driver beside the checkout).",
+)
 @click.option(
     "--allow-missing-tools",
     is_flag=True,
@@ -292,6 +300,7 @@ def validate_command(
     checks: tuple[str, ...],
     samples: int,
     seed: int,
+    vendor_meshes: Path | None,
     allow_missing_tools: bool,
     config_path: Path | None,
 ) -> None:
@@ -324,6 +333,8 @@ def validate_command(
     else:
         pairs = built_variants(out or models_dir(), variants)
     options = Options(seed=seed, samples=samples, plots=plots)
+    if vendor_meshes is not None:
+        options = replace(options, vendor_meshes=vendor_meshes)
     reports = []
     for urdf, mjcf in pairs:
         report = validate_files(urdf, mjcf, options, selected, config_path)

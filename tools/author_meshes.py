@@ -292,8 +292,12 @@ def svh_c() -> trimesh.Trimesh:
 
 def svh_virtual(up: bool) -> trimesh.Trimesh:
     """Finger base bracket (spread link): a U-shaped yoke around the flexion axis."""
+    # D-shaped plan, r 11.5, from z -9.24 to 8.2. Both rims rounded as on the vendor part (f20: r 9.0 at
+    # 0.7 mm from the flat end, 11.0 at 2.7 mm, full 11.5 from 4.2 mm; 10.2 at z 8.0 toward the neck): a sharp
+    # rim there touched the neighbouring bracket when j5 folds the palm, 1.2-2.7 mm before the real parts do.
+    rim = [(-9.24, 8.6), (-8.5, 9.0), (-7.5, 9.9), (-6.5, 10.9), (-5.5, 11.3), (-5.0, 11.5), (7.5, 11.5), (8.2, 10.0)]
     d = inter(
-        cyl((0, 0, 0), "z", -9.24, 10.5, 11.5, 48),  # D-shaped plan, r 11.5
+        lathe((0, 0, 0), "z", rim, 48),
         box((-8.0, -12.0, -10.0), (12.0, 12.0, 11.0)),
         hull_points(  # lower front edge bevelled (profile in x-z)
             np.array(
@@ -311,7 +315,7 @@ def svh_virtual(up: bool) -> trimesh.Trimesh:
         box((-9.0, -6.0, -10.0), (-5.0, 6.0, 14.0)),
     )
     d = diff(d, slot)
-    m = union(d, rbox((-5.0, -5.0, 9.0), (5.0, 5.0, 13.28), 1.5))
+    m = union(d, rbox((-5.0, -5.0, 7.5), (5.0, 5.0, 13.28), 1.5))
     return m if up else mirrored(m, "z")
 
 

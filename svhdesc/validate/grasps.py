@@ -1,11 +1,12 @@
 """Check grasps: the hand closes each configured grasp on its object and holds it as gravity turns.
 
 Each grasp is a keyframe (its channel targets) plus an object (config ``grasps``). The object is
-placed in the hand frame and held by a weld while the hand closes from open with gravity off; then
-the weld lets go, the object settles between the fingers (still no gravity), and gravity pulls, HOLD seconds along each of three hand directions in turn. Slip
-is how far the object moves in the hand frame from where the hand closed on it. A grasp that names
-``tips`` also closes on nothing: those fingertips must meet (under TIP_GAP apart) with no other
-contact on their fingers (the precision pinch).
+placed in the hand frame and held by a weld while the hand closes from open with gravity off (thumb
+opposition and spread first); then the weld lets go, the object settles between the fingers (still
+no gravity), and gravity pulls, HOLD seconds along each of three hand directions in turn. Slip is how
+far the object moves in the hand frame from where it settled. A grasp that names ``tips`` also
+closes on nothing: those fingertips must meet (under TIP_GAP apart) with no other contact on their
+fingers (the precision pinch).
 """
 
 from __future__ import annotations
