@@ -1,8 +1,9 @@
 """Check grasps: the hand closes each configured grasp on its object and holds it as gravity turns.
 
 Each grasp is a keyframe (its channel targets) plus an object (config ``grasps``). The object is
-placed in the hand frame and held by a weld while the hand closes from open with gravity off (thumb
-opposition and spread first); then the weld lets go, the object settles between the fingers (still
+placed in the hand frame and welded there (to the hand's base, which an arm may let give) while the
+hand closes from open with gravity off (thumb opposition and spread first); then the weld lets go,
+the object settles between the fingers (still
 no gravity), and gravity pulls, HOLD seconds along each of three hand directions in turn. Slip is how
 far the object moves in the hand frame from where it settled. A grasp that names ``tips`` also
 closes on nothing: those fingertips must meet (under TIP_GAP apart) with no other contact on their
@@ -95,7 +96,7 @@ def _open(model: Any, hand: Hand) -> dict[str, float]:
     return {channel: float(model.jnt_range[joint][0]) for channel, joint in hand.channels.items()}
 
 
-def _scene(mjcf: Path, grasp: dict[str, Any], world: tuple[np.ndarray, np.ndarray]) -> Any:
+def _scene(mjcf: Path, grasp: dict[str, Any], world: tuple[np.ndarray, np.ndarray], base: str) -> Any:
     import mujoco
 
     spec = mujoco.MjSpec.from_file(str(mjcf))
@@ -118,9 +119,12 @@ def _scene(mjcf: Path, grasp: dict[str, Any], world: tuple[np.ndarray, np.ndarra
         condim=4,
         rgba=(0.85, 0.55, 0.2, 1.0),
     )
-    # Holds the object where it was placed (its relative pose taken from there) while the hand closes.
     weld = spec.add_equality(
-        name="grasp_hold", type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY, name1="grasp_object"
+        name="grasp_hold",
+        type=mujoco.mjtEq.mjEQ_WELD,
+        objtype=mujoco.mjtObj.mjOBJ_BODY,
+        name1="grasp_object",
+        name2=base,
     )
     weld.solref = (0.002, 1.0)
     spec.worldbody.add_light(pos=(0.0, 0.0, 1.5), dir=(0.0, 0.0, -1.0))
@@ -181,7 +185,7 @@ def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
     position = origin + rotation @ (flip * np.array(grasp["pos"]))
     axis = rotation @ (flip * np.array(grasp.get("axis", [0.0, 0.0, 1.0])))
 
-    spec = _scene(mjcf, grasp, (position, axis / np.linalg.norm(axis)))
+    spec = _scene(mjcf, grasp, (position, axis / np.linalg.norm(axis)), f"{hand.prefix}_base_link")
     result.spec = spec
     model = spec.compile()
     model.opt.gravity[:] = 0.0
@@ -191,10 +195,17 @@ def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
     targets = _key_targets(model, hand, name)
     obj = int(model.body("grasp_object").id)
     obj_geom = int(model.geom("grasp_object").id)
-    weld = int(model.equality("grasp_hold").id)
     mujoco.mj_forward(model, data)
     base = hand.body(model, "base_link")
     owner = finger_bodies(model, hand)
+    # The weld keeps the object where it is now in the hand's frame (MuJoCo would take qpos0, where an
+    # arm stands elsewhere): anchored at the object's centre, the base's orientation relative to it.
+    weld = int(model.equality("grasp_hold").id)
+    model.eq_data[weld, 0:3] = data.xmat[base].reshape(3, 3).T @ (data.xpos[obj] - data.xpos[base])
+    model.eq_data[weld, 3:6] = 0.0
+    inverse = np.zeros(4)
+    mujoco.mju_negQuat(inverse, data.xquat[obj])
+    mujoco.mju_mulQuat(model.eq_data[weld, 6:10], inverse, data.xquat[base])
 
     def in_hand() -> np.ndarray:
         return (data.xpos[obj] - data.xpos[base]) @ data.xmat[base].reshape(3, 3)
