@@ -29,6 +29,7 @@ SLIP = 0.005  # m
 TIP_GAP = 0.001  # m
 PRESHAPE = 1.0  # s, thumb opposition and finger spread alone, the fingers open
 CLOSE = 2.0  # s, gravity off, object welded (the damped distal joints close at ~0.9 rad/s)
+RELEASE = 0.5  # s over which the weld softens from 2 ms to 2 s
 SETTLE = 0.5  # s, gravity off, object free: it finds its place between the fingers
 HOLD = 5.0  # s per gravity direction
 GRAVITY = 9.81
@@ -232,6 +233,11 @@ def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
     for channel, q in targets.items():
         data.ctrl[hand.actuators[channel]] = q
     for _ in range(int(round(CLOSE / model.opt.timestep))):
+        mujoco.mj_step(model, data)
+    # Let go gently: the weld softens over RELEASE s, so the fingers' squeeze does not fling the object.
+    steps = int(round(RELEASE / model.opt.timestep))
+    for step in range(steps):
+        model.eq_solref[weld, 0] = 0.002 * (1000.0 ** (step / steps))
         mujoco.mj_step(model, data)
     data.eq_active[weld] = 0
     for _ in range(int(round(SETTLE / model.opt.timestep))):
