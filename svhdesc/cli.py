@@ -356,12 +356,14 @@ def validate_command(
 @click.option("--out", "out_file", type=click.Path(path_type=Path), required=True, help="PNG file to write.")
 @click.option("--keyframe", default=None, help="Pose to draw (default: 'home' if the model has it).")
 @click.option("--size", default="640x480", show_default=True, metavar="WxH", help="Image size in pixels.")
+@click.option("--grasp", default=None, help="Draw the hand holding this configured grasp's object instead.")
 @_friendly
-def render_command(variant: str, out_file: Path, keyframe: str | None, size: str) -> None:
+def render_command(variant: str, out_file: Path, keyframe: str | None, size: str, grasp: str | None) -> None:
     """Render VARIANT's scene.xml offscreen (visual geoms only) to a PNG.
 
     VARIANT is a built variant's name under generated/, or a variant directory or XML file. The
-    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa.
+    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa. With --grasp, the hand closes that
+    grasp (config 'grasps') on its object, as validate's grasps check does, and is drawn holding it.
     """
     from .validate.render import parse_size, render
 
@@ -371,6 +373,12 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
         target = models_dir() / variant
         if not target.is_dir():
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
+    if grasp is not None:
+        from .validate.grasps import render_grasp
+
+        render_grasp(target, grasp, out_file, dimensions)
+        click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, grasp {grasp})")
+        return
     backend = render(target, out_file, keyframe, dimensions)
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
 

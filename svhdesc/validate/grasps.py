@@ -286,11 +286,25 @@ def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size:
     spec.add_key(name="held", qpos=qpos, ctrl=ctrl)
     spec.visual.global_.azimuth = -70.0
     spec.visual.global_.elevation = -15.0
+    spec.visual.headlight.ambient = (0.4, 0.4, 0.4)
+    spec.visual.headlight.diffuse = (0.7, 0.7, 0.7)
     with tempfile.TemporaryDirectory() as folder:
         scene = Path(folder) / f"grasp_{name}.xml"
         scene.write_text(spec.to_xml())
         render(scene, out, "held", size)
     return result
+
+
+def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> GraspResult:
+    """``svhdesc render --grasp``: the configured grasp ``name`` of a built variant (directory or MJCF)."""
+    from .pair import configured_variant
+
+    mjcf = target if target.is_file() else target / f"{target.name}.xml"
+    variant = configured_variant(mjcf.stem, mjcf, None)
+    grasps = dict(variant.settings.get("grasps") or {}) if variant is not None else {}
+    if name not in grasps:
+        raise SvhdescError(f"{mjcf}: no grasp '{name}' configured (grasps: {', '.join(grasps) or 'none'})")
+    return grasp_picture(mjcf, name, grasps[name], out, size)
 
 
 def configured_grasps(pair: ModelPair) -> dict[str, Any] | None:
