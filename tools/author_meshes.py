@@ -87,6 +87,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from lxml import etree
+from vendor_envelopes import ENVELOPE_STEP, ENVELOPES
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"
@@ -286,7 +287,7 @@ def svh_c() -> trimesh.Trimesh:
     """Thumb distal: joint boss and a rounded fingertip."""
     return union(
         cyl((0, 0, 0), "z", -7.0, 7.0, 8.3, 32),
-        ellipsoid((12.0, 0.7, 0.0), (15.78, 10.09, 10.68), 3),
+        ellipsoid((12.0, 0.7, 0.0), (15.78, 10.09, 10.68), 2),
     )
 
 
@@ -349,8 +350,31 @@ def svh_distal() -> trimesh.Trimesh:
     """Distal phalanx: joint boss and a rounded fingertip (tip at x 22.5)."""
     return union(
         cyl((0, 0, 0), "z", -6.0, 6.0, 7.22, 32),
-        ellipsoid((11.5, 0.27, 0.0), (10.96, 8.33, 8.57), 3),
+        ellipsoid((11.5, 0.27, 0.0), (10.96, 8.33, 8.57), 2),
     )
+
+
+def envelope(name: str) -> trimesh.Trimesh:
+    """The measured envelope of the vendor part (vendor_envelopes.py): one octagonal prism per slab."""
+    angles = np.radians([0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0])
+    prisms = []
+    for x, *support in ENVELOPES[name]:
+        h = [*support, support[3], support[2], support[1]]  # h(-theta) = h(theta)
+        corners = []
+        for k in range(8):
+            a, b = angles[k], angles[(k + 1) % 8]
+            normals = np.array([[np.cos(a), np.sin(a)], [np.cos(b), np.sin(b)]])
+            corners.append(np.linalg.solve(normals, [h[k], h[(k + 1) % 8]]))
+        yz = np.array(corners)
+        ends = [np.column_stack([np.full(8, x + d), yz]) for d in (-ENVELOPE_STEP / 2, ENVELOPE_STEP / 2)]
+        prisms.append(hull_points(*ends))
+    return union(*prisms)
+
+
+def fitted(make: Callable[[], trimesh.Trimesh], name: str) -> Callable[[], trimesh.Trimesh]:
+    """An authored part clipped to its vendor envelope: a primitive that bulges past the real part (a
+    rounded box where the phalanx tapers) would make the fingers collide where the real ones pass."""
+    return lambda: inter(make(), envelope(name))
 
 
 SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
@@ -378,6 +402,7 @@ SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
     "m": lambda: svh_middle(22.0, -7.98, 6.03, 9.96),
     "q": svh_distal,
 }
+SVH |= {name: fitted(SVH[name], name) for name in ENVELOPES}
 
 # mirror (axis name) under which a link mesh must be invariant
 SVH_SYMMETRY = {

@@ -105,7 +105,9 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
         return [not_run("collision_fidelity", "no SVH hand in the model", bound)]
     folder = Path(options.vendor_meshes)
     if not (folder / "description" / "urdf" / "svh.urdf.xacro").is_file():
-        return [not_run("collision_fidelity", f"skipped: vendor meshes not found ({folder})", bound)]
+        # --allow-missing-tools lets it through (an installed wheel has no vendor folder beside it); never silent.
+        reason = f"skipped: vendor meshes not found ({folder}; --vendor-meshes)"
+        return [not_run("collision_fidelity", reason, bound, missing_tool="vendor meshes")]
     vendor = vendor_links(folder.resolve(), hand_side(pair, prefix))
     suffix = {b: model.body(b).name.removeprefix(f"{prefix}_") for b in range(model.nbody)}
     judged = {b for b in range(model.nbody) if model.body(b).name.startswith(f"{prefix}_") and suffix[b] in vendor}

@@ -89,7 +89,7 @@ def vendor_links(folder: Path, side: str) -> dict[str, VendorLink]:
             continue
         mesh = trimesh.util.concatenate(parts)
         count = max(500, int(mesh.area / SPACING**2))
-        samples, _ = trimesh.sample.sample_surface_even(mesh, count, seed=0)
+        samples, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
         points = np.vstack([samples, mesh.vertices])
         links[link.get("name").removeprefix(prefix)] = VendorLink(mesh, points, cKDTree(points))
     return links
