@@ -22,10 +22,18 @@ from .support import VARIANTS, VENDOR_SVH
 REPO = Path(__file__).resolve().parents[1]
 GENERATED = REPO / "generated"
 OPTIONS = Options(vendor_meshes=VENDOR_SVH)
-# Pairs whose authored geometry still reaches 0.02-2.3 mm past the vendor parts (middle phalanges and the
-# thumb; see README, Validation). Listed so that a new pair fails; the strict xfail below turns red once
-# they are fixed, so this list can only shrink.
-KNOWN_FIDELITY_GAPS = {("k", "j"), ("o", "j"), ("o", "n"), ("n", "b"), ("r", "a")}
+# The one pair whose collision geometry still touches early: the middle phalanges' convex hulls fill the
+# waist of the real parts (|z| 7.6 mm mid-length against 9.8 at the base), up to 1 mm deep where the vendor
+# parts stay 2.1 mm apart (README, Validation). Listed so that any new pair fails; the strict xfail below turns
+# red once it is fixed, so this set can only shrink.
+KNOWN_FIDELITY_GAPS = {("o", "n")}
+
+
+def known_gaps_only(check: dict) -> bool:
+    """A collision_fidelity result (JSON form) that lists nothing beyond KNOWN_FIDELITY_GAPS."""
+    found = {tuple(b.split("_hand_", 1)[1] for b in f["bodies"]) for f in check["data"]["findings"]}
+    return found <= KNOWN_FIDELITY_GAPS
+
 
 needs_vendor = pytest.mark.skipif(
     not (VENDOR_SVH / "description" / "urdf" / "svh.urdf.xacro").is_file(),
@@ -92,11 +100,9 @@ def test_collision_fidelity_finds_no_pair_beyond_the_known_ones(variant: str) ->
     (check,) = check_collision_fidelity(pair_of(GENERATED / variant), OPTIONS)
     assert check.status in ("pass", "fail"), check.detail
     assert check.data["poses"] > 100 and check.data["judged_pairs"]
-    prefix = "left_hand_" if "left" in variant else "right_hand_"
-    found = {tuple(b.removeprefix(prefix) for b in f["bodies"]) for f in check.data["findings"]}
-    assert found <= KNOWN_FIDELITY_GAPS
+    assert known_gaps_only({"data": check.data})
     # The thumb-blocking pair of issue 15 is gone.
-    assert ("virtual_k", "virtual_j") not in found
+    assert not any("virtual_j" in f["bodies"][0] + f["bodies"][1] for f in check.data["findings"])
 
 
 @needs_vendor
