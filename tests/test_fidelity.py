@@ -144,3 +144,30 @@ def test_missing_vendor_meshes_are_reported_not_skipped_silently(tmp_path: Path)
     assert "skipped: vendor meshes not found" in result.stdout
     (check,) = json.loads(report.read_text())["variants"][0]["checks"]
     assert check["status"] == "not run" and check["missing_tool"] == "vendor meshes"
+
+
+@needs_vendor
+@pytest.mark.parametrize("fraction, overlapping", [(0.5, True), (0.95, True), (0.3, False)])
+def test_all_channels_at_once_jam_the_real_fingers_too(fraction: float, overlapping: bool) -> None:
+    """README: with every channel at 50 % or 95 % of its range the vendor parts of neighbouring fingers meet (so the
+    real hand cannot take that pose either); at 30 % they are apart."""
+    import mujoco
+
+    from svhdesc.validate.collision_fidelity import _frame, base_qpos, place
+    from svhdesc.validate.pair import actuated_joints, joint_equalities
+    from svhdesc.validate.vendor_geometry import vendor_links
+
+    model = pair_of(GENERATED / "svh_right").model
+    data = mujoco.MjData(model)
+    pose = {n: lo + fraction * (hi - lo) for n, (lo, hi) in actuated_joints(model).items()}
+    place(model, data, base_qpos(model), pose, joint_equalities(model))
+    vendor = vendor_links(VENDOR_SVH.resolve(), "right")
+    fingers = [("l", "p", "t"), ("k", "o", "s"), ("j", "n", "r"), ("i", "m", "q")]
+    gaps = []
+    for one, other in zip(fingers, fingers[1:]):  # neighbouring fingers, every segment against every segment
+        for a in one:
+            for b in other:
+                ida, idb = model.body(f"right_hand_{a}").id, model.body(f"right_hand_{b}").id
+                transform = np.linalg.inv(_frame(data, idb)) @ _frame(data, ida)
+                gaps.append(vendor[a].distance(vendor[b], transform))
+    assert (min(gaps) < 5e-5) == overlapping, min(gaps)
