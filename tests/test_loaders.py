@@ -235,7 +235,9 @@ def test_drake_couplings_hold_while_driven() -> None:
     context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
     plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuators()))
     actuated = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(robot.instance)]
-    target = np.array([sum(limits[name]) / 2 for name in actuated])
+    # 30 % of each range: at mid-range the middle and ring fingers run into each other, as the vendor's parts do
+    # there (collision_fidelity's vendor meshes overlap), and which channel gets there depends on the contact.
+    target = np.array([limits[name][0] + 0.3 * (limits[name][1] - limits[name][0]) for name in actuated])
     state = np.concatenate([target, np.zeros_like(target)])
     plant.get_desired_state_input_port(robot.instance).FixValue(context, state)
     simulator.AdvanceTo(6.0)  # the driver's efforts (0.18-0.88 N m) move the fingers in seconds, not one

@@ -93,6 +93,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"
 ROUND_M = 7  # decimals kept for coordinates in metres (0.1 um)
 DATE = "2000-01-01T00:00:00"
+MAX_TRIANGLES = 3000
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 _PLANE = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
@@ -232,7 +233,9 @@ def svh_e1() -> trimesh.Trimesh:
             )
         )
         parts.append(rbox((xc - 4.5, 10.5, 95.0), (xc + 4.5, 16.0, 119.0), 1.5))
-    return union(*parts)
+    # The vendor palm (h10) is recessed to x 10-11 between its palm and dorsal walls below the knuckles,
+    # where the ring finger's base swings in as j5 folds the palm: a solid corner there stopped the ring finger.
+    return diff(union(*parts), box((11.2, -12.5, 89.0), (19.0, 9.0, 102.0)))
 
 
 def svh_e2() -> trimesh.Trimesh:
@@ -266,10 +269,10 @@ def svh_z() -> trimesh.Trimesh:
 
 def svh_a() -> trimesh.Trimesh:
     """Thumb proximal: root block, flexion motor and shaft (axis z at 0, next at x 48.5)."""
-    return union(
-        rbox((-14.45, -15.35, -9.6), (16.0, 18.11, 9.6), 4.0),
-        rbox((15.0, -15.35, -14.6), (40.0, 15.5, 14.6), 4.0),
-        rbox((38.0, -15.35, -9.2), (62.8, 13.8, 9.2), 5.0),
+    return union(  # coarse corners: the vendor envelope clips them (triangle budget)
+        rbox((-14.45, -15.35, -9.6), (16.0, 18.11, 9.6), 4.0, 0),
+        rbox((15.0, -15.35, -14.6), (40.0, 15.5, 14.6), 4.0, 1),
+        rbox((38.0, -15.35, -9.2), (62.8, 13.8, 9.2), 5.0, 1),
     )
 
 
@@ -286,7 +289,7 @@ def svh_b() -> trimesh.Trimesh:
 def svh_c() -> trimesh.Trimesh:
     """Thumb distal: joint boss and a rounded fingertip."""
     return union(
-        cyl((0, 0, 0), "z", -7.0, 7.0, 8.3, 32),
+        cyl((0, 0, 0), "z", -7.0, 7.0, 8.3, 24),
         ellipsoid((12.0, 0.7, 0.0), (15.78, 10.09, 10.68), 2),
     )
 
@@ -343,6 +346,8 @@ def svh_middle(pitch: float, ylo: float, yhi: float, zmax: float) -> trimesh.Tri
         solid,
         box((-7.0, -10.0, -7.0), (4.0, 10.0, 7.0)),
         box((pitch - 2.0, -10.0, -5.6), (pitch + 7.0, 10.0, 5.6)),
+        # the distal fork opens toward the palm 7 mm before the joint (vendor f22/f32: slot |z| < 4.5)
+        box((pitch - 7.0, -6.0, -4.5), (pitch + 7.0, 10.0, 4.5)),
     )
 
 
@@ -354,19 +359,30 @@ def svh_distal() -> trimesh.Trimesh:
     )
 
 
+MERGE_MM = 0.2
+
+
 def envelope(name: str) -> trimesh.Trimesh:
-    """The measured envelope of the vendor part (vendor_envelopes.py): one octagonal prism per slab."""
-    angles = np.radians([0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0])
+    """The measured envelope of the vendor part (vendor_envelopes.py): one 16-sided prism per slab."""
+    # Neighbouring slabs within MERGE_MM of each other become one (their larger support): fewer steps.
+    runs: list[tuple[float, float, list[float]]] = []
+    for x, *half in ENVELOPES[name]:
+        lo, hi = x - ENVELOPE_STEP / 2, x + ENVELOPE_STEP / 2
+        if runs and max(abs(a - b) for a, b in zip(runs[-1][2], half)) < MERGE_MM:
+            runs[-1] = (runs[-1][0], hi, [max(a, b) for a, b in zip(runs[-1][2], half)])
+        else:
+            runs.append((lo, hi, list(half)))
     prisms = []
-    for x, *support in ENVELOPES[name]:
-        h = [*support, support[3], support[2], support[1]]  # h(-theta) = h(theta)
+    for lo, hi, half in runs:
+        support = [*half, *half[-2:0:-1]]  # h(-theta) = h(theta): 0 .. 180 degrees, then back to 0
+        angles = np.radians(np.arange(len(support)) * 360.0 / len(support))
         corners = []
-        for k in range(8):
-            a, b = angles[k], angles[(k + 1) % 8]
+        for k in range(len(support)):
+            a, b = angles[k], angles[(k + 1) % len(support)]
             normals = np.array([[np.cos(a), np.sin(a)], [np.cos(b), np.sin(b)]])
-            corners.append(np.linalg.solve(normals, [h[k], h[(k + 1) % 8]]))
+            corners.append(np.linalg.solve(normals, [support[k], support[(k + 1) % len(support)]]))
         yz = np.array(corners)
-        ends = [np.column_stack([np.full(8, x + d), yz]) for d in (-ENVELOPE_STEP / 2, ENVELOPE_STEP / 2)]
+        ends = [np.column_stack([np.full(len(yz), x), yz]) for x in (lo, hi)]
         prisms.append(hull_points(*ends))
     return union(*prisms)
 
@@ -558,7 +574,7 @@ def finish(mesh_mm: trimesh.Trimesh, name: str) -> trimesh.Trimesh:
     bodies = m.split(only_watertight=False)
     if len(bodies) != 1:
         raise RuntimeError(f"{name}: {len(bodies)} separate pieces")
-    if len(m.faces) > 2500:
+    if len(m.faces) > MAX_TRIANGLES:
         raise RuntimeError(f"{name}: {len(m.faces)} triangles, too heavy")
     return m
 

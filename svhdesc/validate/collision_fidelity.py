@@ -18,15 +18,15 @@ from ..polynomial import polyval
 from .options import Options
 from .pair import ModelPair, actuated_joints, joint_equalities
 from .report import Check, not_run, verdict
-from .vendor_geometry import vendor_links
+from .vendor_geometry import REFINE_BELOW, vendor_links
 
 SWEEP_STEPS = 11  # poses per channel swept alone, ends included
-RANDOM_POSES = 150
+RANDOM_POSES = 1000
 # Collision geoms count as touching at any depth: the thumb-blocking bracket pair of issue 15 was only
 # 0.28 mm deep, so a depth tolerance would let exactly that fault through. The vendor gap carries the slack.
 DEPTH = 0.0  # m
 GAP = 1e-3  # m between the vendor meshes
-CANDIDATES_PER_PAIR = 40  # deepest touching poses judged per pair
+CANDIDATES_PER_PAIR = 200  # touching poses judged per pair: the deepest half, the rest spread over the others
 
 
 def hand_prefix(model: Any) -> str | None:
@@ -130,7 +130,8 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     for (b1, b2), hits in sorted(candidates.items()):
         hits.sort(reverse=True)
         # Deepest poses first, spread over the rest: a pair is judged on its worst case and a fair sample.
-        picked = hits[: CANDIDATES_PER_PAIR // 2] + hits[CANDIDATES_PER_PAIR // 2 :: max(1, len(hits) // 20)]
+        half = CANDIDATES_PER_PAIR // 2
+        picked = hits[:half] + hits[half :: max(1, (len(hits) - half) // half)]
         a, b = (b1, b2) if len(vendor[suffix[b1]].points) <= len(vendor[suffix[b2]].points) else (b2, b1)
         for depth, index in picked:
             place(model, data, base, poses[index], equalities)
@@ -149,7 +150,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
                 break
     detail = "; ".join(
         f"{f['bodies'][0]}/{f['bodies'][1]} touch ({f['depth_mm']:.2f} mm deep) with the vendor parts "
-        f"{f['vendor_gap_mm']:.2f} mm apart"
+        f"{'>= ' if f['vendor_gap_mm'] >= REFINE_BELOW * 1e3 else ''}{f['vendor_gap_mm']:.2f} mm apart"
         for f in findings
     )
     summary = (

@@ -18,8 +18,8 @@ from ..paths import checkout_root, source_root
 from .pair import rpy_matrix
 
 PACKAGE = "schunk_svh_driver"
-SPACING = 0.5e-3  # m between surface samples; distances are refined on the exact triangles below 2 mm
-REFINE_BELOW = 2e-3  # m
+SPACING = 0.5e-3  # m between surface samples; distances are refined on the exact triangles below 3 mm
+REFINE_BELOW = 3e-3  # m: gaps beyond it are reported as that bound
 REFINE_POINTS = 64
 
 
@@ -42,13 +42,18 @@ class VendorLink:
     tree: object  # scipy cKDTree over ``points``
 
     def distance(self, other: VendorLink, a_to_b: np.ndarray) -> float:
-        """Gap (m) between this surface, placed in ``other``'s frame by the 4x4 ``a_to_b``, and ``other``'s."""
+        """Gap (m) between this surface, placed in ``other``'s frame by the 4x4 ``a_to_b``, and ``other``'s;
+        REFINE_BELOW for any gap at least that large."""
         import trimesh
 
         moved = self.points @ a_to_b[:3, :3].T + a_to_b[:3, 3]
-        approx, _ = other.tree.query(moved)
-        if approx.min() > REFINE_BELOW:
-            return float(approx.min())
+        low, high = other.points.min(axis=0) - REFINE_BELOW, other.points.max(axis=0) + REFINE_BELOW
+        moved = moved[np.all((moved >= low) & (moved <= high), axis=1)]
+        if len(moved) == 0:
+            return REFINE_BELOW  # at least that far apart: nothing of this part is near the other's box
+        approx, _ = other.tree.query(moved, distance_upper_bound=REFINE_BELOW)
+        if not np.isfinite(approx.min()):
+            return REFINE_BELOW
         nearest = moved[np.argsort(approx)[:REFINE_POINTS]]
         _, exact, _ = trimesh.proximity.closest_point(other.mesh, nearest)
         return float(min(exact.min(), approx.min()))
