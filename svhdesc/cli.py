@@ -8,6 +8,7 @@ from __future__ import annotations
 import sys
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 from functools import wraps
 from pathlib import Path
 from typing import Any
@@ -296,7 +297,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, contact_stability; or groups: parsers, mass, coupling, margins. Default: all.",
+    "self_collision, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps; or groups: "
+    "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
 @click.option(
     "--samples",
@@ -306,6 +308,13 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     help="Random configurations for the kinematics check.",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of every random draw.")
+@click.option(
+    "--vendor-meshes",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="The vendor's schunk_svh_driver folder, whose visual meshes collision_fidelity compares the collision "
+    "geometry with (default: ../shared/vendor/schunk_svh_driver beside the checkout).",
+)
 @click.option(
     "--allow-missing-tools",
     is_flag=True,
@@ -324,6 +333,7 @@ def validate_command(
     checks: tuple[str, ...],
     samples: int,
     seed: int,
+    vendor_meshes: Path | None,
     allow_missing_tools: bool,
     config_path: Path | None,
 ) -> None:
@@ -356,6 +366,8 @@ def validate_command(
     else:
         pairs = built_variants(out or models_dir(), variants)
     options = Options(seed=seed, samples=samples, plots=plots)
+    if vendor_meshes is not None:
+        options = replace(options, vendor_meshes=vendor_meshes)
     reports = []
     for urdf, mjcf in pairs:
         report = validate_files(urdf, mjcf, options, selected, config_path)
@@ -377,12 +389,14 @@ def validate_command(
 @click.option("--out", "out_file", type=click.Path(path_type=Path), required=True, help="PNG file to write.")
 @click.option("--keyframe", default=None, help="Pose to draw (default: 'home' if the model has it).")
 @click.option("--size", default="640x480", show_default=True, metavar="WxH", help="Image size in pixels.")
+@click.option("--grasp", default=None, help="Draw the hand holding this configured grasp's object instead.")
 @_friendly
-def render_command(variant: str, out_file: Path, keyframe: str | None, size: str) -> None:
+def render_command(variant: str, out_file: Path, keyframe: str | None, size: str, grasp: str | None) -> None:
     """Render VARIANT's scene.xml offscreen (visual geoms only) to a PNG.
 
     VARIANT is a built variant's name under generated/, or a variant directory or XML file. The
-    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa.
+    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa. With --grasp, the hand closes that
+    grasp (config 'grasps') on its object, as validate's grasps check does, and is drawn holding it.
     """
     from .validate.render import parse_size, render
 
@@ -392,6 +406,12 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
         target = models_dir() / variant
         if not target.is_dir():
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
+    if grasp is not None:
+        from .validate.grasps import render_grasp
+
+        render_grasp(target, grasp, out_file, dimensions)
+        click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, grasp {grasp})")
+        return
     backend = render(target, out_file, keyframe, dimensions)
     click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, MUJOCO_GL={backend})")
 

@@ -66,7 +66,7 @@ def _merge(base: dict[str, Any], override: dict[str, Any]) -> Node:
     merged.where = getattr(override, "where", "") or getattr(base, "where", "")
     merged.lines = {**getattr(base, "lines", {}), **getattr(override, "lines", {})}
     for key, value in override.items():
-        if isinstance(value, dict) and isinstance(merged.get(key), dict) and key not in {"keyframes", "args"}:
+        if isinstance(value, dict) and isinstance(merged.get(key), dict) and key not in {"keyframes", "grasps", "args"}:
             merged[key] = _merge(merged[key], value)
         else:
             merged[key] = copy.deepcopy(value)

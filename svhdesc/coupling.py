@@ -50,7 +50,7 @@ def load_spec(path: Path) -> CouplingSpec:
         at = where(item, where(data, str(path), "channels"))
         if not isinstance(item, dict) or "name" not in item:
             raise SvhdescError(f"{at}: channel needs a name")
-        unknown = set(item) - {"name", "range", "effort", "velocity"}
+        unknown = set(item) - {"name", "range", "effort", "velocity", "tip_force"}
         if unknown:
             raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(map(str, unknown))}")
         name = text(item["name"], f"{at}: channel name")
@@ -66,7 +66,12 @@ def load_spec(path: Path) -> CouplingSpec:
         velocity = number(0.0, 1e4, strict=True)(
             item["velocity"], f"{where(item, at, 'velocity')}: channel {name}: velocity"
         )
-        channels.append(Channel(name, name, lower, upper, effort, velocity))
+        tip_force = None
+        if item.get("tip_force") is not None:
+            tip_force = number(0.0, 1e4, strict=True)(
+                item["tip_force"], f"{where(item, at, 'tip_force')}: channel {name}: tip_force"
+            )
+        channels.append(Channel(name, name, lower, upper, effort, velocity, tip_force))
         lines[name] = at
     channel_names = {c.name for c in channels}
     for item in couplings_data or []:

@@ -106,6 +106,9 @@ class Channel:
     upper: float
     effort: float
     velocity: float
+    # The driver's fingertip force (N) at the channel's current limit; None where the driver gives none.
+    # validate's fingertip_force holds the simulated finger to it.
+    tip_force: float | None = None
 
 
 @dataclass(frozen=True)

@@ -294,6 +294,50 @@ def _keyframe(value: Any, at: str) -> Node:
     return mapping_of(number())(value, at)
 
 
+FINGER_NAMES = ("thumb", "index", "middle", "ring", "pinky")
+GRASP_KEYS = {
+    # what is held: a free body of this shape, size (MuJoCo geom size, m) and mass (kg)
+    "object": choice("cylinder", "sphere", "box"),
+    "size": numbers((1, 2, 3), number(0.0, 1.0, strict=True)),
+    "mass": number(0.0, 100.0, strict=True),
+    # where it is held: centre, and the direction of its axis (cylinder) or z (box), in the hand's
+    # base_link frame of a right hand (mirrored for a left one)
+    "pos": numbers((3,)),
+    "axis": numbers((3,)),
+    # fingers that must touch the object
+    "fingers": names,
+    # fingertips that meet (< 1 mm, nothing else touching) when the posture closes on nothing
+    "tips": names,
+}
+
+
+def _grasp(value: Any, at: str) -> Node:
+    """A grasp (named like the keyframe that closes it) and the object it holds."""
+    if not isinstance(value, dict):
+        raise _fail(at, f"must be a mapping, got {value!r}")
+    base = at.rsplit(": ", 1)[0]
+    unknown = [str(k) for k in value if k not in GRASP_KEYS]
+    if unknown:
+        raise SvhdescError(f"{where(value, base, unknown[0])}: unknown key(s) {sorted(unknown)} in {_key(at)}")
+    missing = [k for k in ("object", "size", "mass", "pos") if k not in value]
+    if missing:
+        raise _fail(at, f"needs {', '.join(missing)}")
+    result = Node()
+    result.where = getattr(value, "where", "")
+    for key, item in value.items():
+        line = where(value, base, key)
+        result[key] = GRASP_KEYS[key](item, f"{line}: {_key(at)}.{key}")
+        result.lines[key] = line
+    for key in ("fingers", "tips"):
+        for finger in result.get(key, []):
+            if finger not in FINGER_NAMES:
+                raise _fail(f"{result.lines[key]}: {_key(at)}.{key}", f"has {finger!r}; fingers: {list(FINGER_NAMES)}")
+    needed = {"cylinder": 2, "sphere": 1, "box": 3}[result["object"]]
+    if len(result["size"]) != needed:
+        raise _fail(f"{result.lines['size']}: {_key(at)}.size", f"a {result['object']} needs {needed} number(s)")
+    return result
+
+
 @dataclass(frozen=True)
 class Settings(Located):
     coupling: str = _field(None, text, required=True)
@@ -307,6 +351,7 @@ class Settings(Located):
     simulation: Simulation = _sub(Simulation)
     scene: Scene = _sub(Scene)
     keyframes: dict[str, Any] = _field({}, mapping_of(_keyframe))
+    grasps: dict[str, Any] = _field({}, mapping_of(_grasp))
     collision: dict[str, Any] = field(default=None, metadata={"check": free, "required": False, "section": True})
 
 

@@ -189,15 +189,17 @@ def test_pybullet(variant: str, step: float | None, capfd: pytest.CaptureFixture
                 robot.joints[name],
                 p.POSITION_CONTROL,
                 targetPosition=sum(limits[name]) / 2,
-                force=info[10],
+                # Known (issue 15): at the driver's efforts (0.18-0.5 N m on the fingers) pybullet's motors
+                # stall on channels tied to gear constraints; this tests the couplings, so 1 N m at least.
+                force=max(info[10], 1.0),
                 maxVelocity=info[11],
                 physicsClientId=client,
             )
-        for _ in range(round(1.0 / dt)):  # 1 s: the slowest channel needs 0.7 s at its 1 rad/s
+        for _ in range(round(3.0 / dt)):  # 3 s: the driver's speed limits are 0.32-1.33 rad/s
             p.stepSimulation(physicsClientId=client)
         q = {name: p.getJointState(body, i, physicsClientId=client)[0] for name, i in robot.joints.items()}
         hand = [n for n in _leaders(variant) if n.startswith(_prefix(variant))]
-        assert all(abs(q[n] - sum(limits[n]) / 2) < 0.01 for n in hand)  # the channels did move
+        assert all(abs(q[n] - sum(limits[n]) / 2) < 0.01 for n in hand), {n: q[n] - sum(limits[n]) / 2 for n in hand}
         assert _worst_coupling(variant, q) < COUPLING_TOL
     finally:
         p.disconnect(physicsClientId=robot.client)
@@ -237,12 +239,15 @@ def test_drake_couplings_hold_while_driven() -> None:
     context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
     plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuators()))
     actuated = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(robot.instance)]
-    target = np.array([sum(limits[name]) / 2 for name in actuated])
+    # 30 % of each range: at mid-range the middle and ring fingers run into each other, as the vendor's parts do
+    # there (collision_fidelity's vendor meshes overlap), and which channel gets there depends on the contact.
+    target = np.array([limits[name][0] + 0.3 * (limits[name][1] - limits[name][0]) for name in actuated])
     state = np.concatenate([target, np.zeros_like(target)])
     plant.get_desired_state_input_port(robot.instance).FixValue(context, state)
-    simulator.AdvanceTo(1.0)
+    simulator.AdvanceTo(6.0)  # the driver's efforts (0.18-0.88 N m) move the fingers in seconds, not one
     q = {name: plant.GetJointByName(name).get_angle(context) for name in limits}
-    assert sum(abs(q[n] - t) < 0.02 for n, t in zip(actuated, target)) >= 7  # most channels got there
+    short = {n: round(q[n] - t, 4) for n, t in zip(actuated, target) if abs(q[n] - t) >= 0.02}
+    assert not short  # every channel got there
     assert _worst_coupling(variant, q) < COUPLING_TOL
 
 
@@ -272,7 +277,7 @@ def test_dart(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
     for joint in channels:
         joint.setActuatorType(dart.dynamics.ActuatorType.SERVO)
     worst_while_moving = 0.0
-    for step in range(1000):
+    for step in range(3000):  # 3 s: the driver's speed limits are 0.32-1.33 rad/s
         for joint in channels:
             speed = 10.0 * (sum(limits[joint.getName()]) / 2 - joint.getPosition(0))
             # At most the URDF's velocity limit, as a real servo: a faster channel outruns the mimic motor.

@@ -66,8 +66,8 @@ def test_vendor_h10_scene_transform_baked_and_winding_fixed():
 
 
 def test_collada_unit_and_up_axis_are_respected(tmp_path: Path):
-    source = (AUTHORED / "svh" / "t.dae").read_bytes()
-    reference = load_mesh(AUTHORED / "svh" / "t.dae")
+    source = (AUTHORED / "svh" / "z.dae").read_bytes()  # no vertices within 1 mm of each other at its extremes
+    reference = load_mesh(AUTHORED / "svh" / "z.dae")
     mm = tmp_path / "mm.dae"
     mm.write_bytes(source.replace(b'meter="1"', b'meter="0.001"'))
     np.testing.assert_allclose(load_mesh(mm).bounds, reference.bounds * 1e-3, atol=1e-12)
@@ -215,7 +215,8 @@ def test_authored_mesh_is_closed_light_and_symmetric(path: Path):
     mesh = load_mesh(path)
     assert mesh.is_watertight and mesh.volume > 0
     assert len(mesh.split(only_watertight=False)) == 1
-    assert 200 <= len(mesh.faces) <= 2000
+    # up to 3000: clipping to the vendor envelopes (tools/vendor_envelopes.py) adds facets
+    assert 200 <= len(mesh.faces) <= 3000
     axis = SYMMETRY.get(path.stem) if path.parent.name == "svh" else None
     if axis is not None:
         mirrored = np.array(mesh.vertices)

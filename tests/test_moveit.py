@@ -12,9 +12,10 @@ import yaml
 from lxml import etree
 
 import svhdesc
+from svhdesc.config import load_config
 from svhdesc.ros.system import ros_available
 
-from .support import VARIANTS
+from .support import REPO, VARIANTS
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -55,7 +56,7 @@ def test_srdf_names_exist_in_the_urdf(variant: str) -> None:
     model = svhdesc.load_mujoco(variant)
     for state in srdf.iterfind("group_state"):
         assert state.get("group") in groups
-        key = model.key(state.get("name"))  # home and test, from the keyframes
+        key = model.key(state.get("name"))  # from the keyframes
         ctrl = {model.actuator(a).name: key.ctrl[a] for a in range(model.nu)}
         values = {j.get("name"): float(j.get("value")) for j in state.iterfind("joint")}
         assert set(values) == set(ctrl) and not set(values) & passive
@@ -63,7 +64,10 @@ def test_srdf_names_exist_in_the_urdf(variant: str) -> None:
             limit = joints[name].find("limit")
             assert float(limit.get("lower")) - 1e-9 <= value <= float(limit.get("upper")) + 1e-9
             assert value == pytest.approx(ctrl[name])
-    assert {s.get("name") for s in srdf.iterfind("group_state")} == {"home", "test"}
+    # Every keyframe (home, test and the grasp postures) becomes a group state.
+    keyframes = set(load_config(REPO / "config" / "svhdesc.yaml").variants[variant].settings["keyframes"])
+    assert {"home", "test", "pinch"} <= keyframes
+    assert {s.get("name") for s in srdf.iterfind("group_state")} == keyframes
 
 
 def _collision_links(urdf: etree._ElementTree) -> set[str]:

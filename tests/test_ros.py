@@ -425,7 +425,9 @@ def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
             "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
         )
         assert client.wait_for_server(rospy.Duration(60))
-        client.send_goal(_goal(ros, ["left_hand_Pinky"], [[0.5]], [0.5]))
+        client.send_goal(
+            _goal(ros, ["left_hand_Pinky"], [[0.5]], [2.0])
+        )  # within the real pinky's 0.98 rad/s (the model's makes ~0.4)
         wait_for(lambda: client.get_state() == GoalStatus.SUCCEEDED, 30, "the left hand's goal")
         message = states.fresh()
         assert dict(zip(message.name, message.position))["left_hand_Pinky"] == pytest.approx(0.5, abs=0.01)

@@ -88,6 +88,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from lxml import etree
+from vendor_envelopes import ENVELOPE_STEP, ENVELOPES
 
 from svhdesc.exact import perturbed
 
@@ -95,6 +96,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"
 ROUND_M = 7  # decimals kept for coordinates in metres (0.1 um)
 DATE = "2000-01-01T00:00:00"
+MAX_TRIANGLES = 3000
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 _PLANE = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
@@ -236,7 +238,9 @@ def svh_e1() -> trimesh.Trimesh:
             )
         )
         parts.append(rbox((xc - 4.5, 10.5, 95.0), (xc + 4.5, 16.0, 119.0), 1.5))
-    return union(*parts)
+    # The vendor palm (h10) is recessed to x 10-11 between its palm and dorsal walls below the knuckles,
+    # where the ring finger's base swings in as j5 folds the palm: a solid corner there stopped the ring finger.
+    return diff(union(*parts), box((11.2, -12.5, 89.0), (19.0, 9.0, 102.0)))
 
 
 def svh_e2() -> trimesh.Trimesh:
@@ -270,10 +274,10 @@ def svh_z() -> trimesh.Trimesh:
 
 def svh_a() -> trimesh.Trimesh:
     """Thumb proximal: root block, flexion motor and shaft (axis z at 0, next at x 48.5)."""
-    return union(
-        rbox((-14.45, -15.35, -9.6), (16.0, 18.11, 9.6), 4.0),
-        rbox((15.0, -15.35, -14.6), (40.0, 15.5, 14.6), 4.0),
-        rbox((38.0, -15.35, -9.2), (62.8, 13.8, 9.2), 5.0),
+    return union(  # coarse corners: the vendor envelope clips them (triangle budget)
+        rbox((-14.45, -15.35, -9.6), (16.0, 18.11, 9.6), 4.0, 0),
+        rbox((15.0, -15.35, -14.6), (40.0, 15.5, 14.6), 4.0, 1),
+        rbox((38.0, -15.35, -9.2), (62.8, 13.8, 9.2), 5.0, 1),
     )
 
 
@@ -290,15 +294,19 @@ def svh_b() -> trimesh.Trimesh:
 def svh_c() -> trimesh.Trimesh:
     """Thumb distal: joint boss and a rounded fingertip."""
     return union(
-        cyl((0, 0, 0), "z", -7.0, 7.0, 8.3, 32),
-        ellipsoid((12.0, 0.7, 0.0), (15.78, 10.09, 10.68), 3),
+        cyl((0, 0, 0), "z", -7.0, 7.0, 8.3, 24),
+        ellipsoid((12.0, 0.7, 0.0), (15.78, 10.09, 10.68), 2),
     )
 
 
 def svh_virtual(up: bool) -> trimesh.Trimesh:
     """Finger base bracket (spread link): a U-shaped yoke around the flexion axis."""
+    # D-shaped plan, r 11.5, from z -9.24 to 8.2. Both rims rounded as on the vendor part (f20: r 9.0 at
+    # 0.7 mm from the flat end, 11.0 at 2.7 mm, full 11.5 from 4.2 mm; 10.2 at z 8.0 toward the neck): a sharp
+    # rim there touched the neighbouring bracket when j5 folds the palm, 1.2-2.7 mm before the real parts do.
+    rim = [(-9.24, 8.6), (-8.5, 9.0), (-7.5, 9.9), (-6.5, 10.9), (-5.5, 11.3), (-5.0, 11.5), (7.5, 11.5), (8.2, 10.0)]
     d = inter(
-        cyl((0, 0, 0), "z", -9.24, 10.5, 11.5, 48),  # D-shaped plan, r 11.5
+        lathe((0, 0, 0), "z", rim, 48),
         box((-8.0, -12.0, -10.0), (12.0, 12.0, 11.0)),
         hull_points(  # lower front edge bevelled (profile in x-z)
             np.array(
@@ -316,7 +324,7 @@ def svh_virtual(up: bool) -> trimesh.Trimesh:
         box((-9.0, -6.0, -10.0), (-5.0, 6.0, 14.0)),
     )
     d = diff(d, slot)
-    m = union(d, rbox((-5.0, -5.0, 9.0), (5.0, 5.0, 13.28), 1.5))
+    m = union(d, rbox((-5.0, -5.0, 7.5), (5.0, 5.0, 13.28), 1.5))
     return m if up else mirrored(m, "z")
 
 
@@ -343,6 +351,8 @@ def svh_middle(pitch: float, ylo: float, yhi: float, zmax: float) -> trimesh.Tri
         solid,
         box((-7.0, -10.0, -7.0), (4.0, 10.0, 7.0)),
         box((pitch - 2.0, -10.0, -5.6), (pitch + 7.0, 10.0, 5.6)),
+        # the distal fork opens toward the palm 7 mm before the joint (vendor f22/f32: slot |z| < 4.5)
+        box((pitch - 7.0, -6.0, -4.5), (pitch + 7.0, 10.0, 4.5)),
     )
 
 
@@ -350,8 +360,42 @@ def svh_distal() -> trimesh.Trimesh:
     """Distal phalanx: joint boss and a rounded fingertip (tip at x 22.5)."""
     return union(
         cyl((0, 0, 0), "z", -6.0, 6.0, 7.22, 32),
-        ellipsoid((11.5, 0.27, 0.0), (10.96, 8.33, 8.57), 3),
+        ellipsoid((11.5, 0.27, 0.0), (10.96, 8.33, 8.57), 2),
     )
+
+
+MERGE_MM = 0.2
+
+
+def envelope(name: str) -> trimesh.Trimesh:
+    """The measured envelope of the vendor part (vendor_envelopes.py): one 16-sided prism per slab."""
+    # Neighbouring slabs within MERGE_MM of each other become one (their larger support): fewer steps.
+    runs: list[tuple[float, float, list[float]]] = []
+    for x, *half in ENVELOPES[name]:
+        lo, hi = x - ENVELOPE_STEP / 2, x + ENVELOPE_STEP / 2
+        if runs and max(abs(a - b) for a, b in zip(runs[-1][2], half)) < MERGE_MM:
+            runs[-1] = (runs[-1][0], hi, [max(a, b) for a, b in zip(runs[-1][2], half)])
+        else:
+            runs.append((lo, hi, list(half)))
+    prisms = []
+    for lo, hi, half in runs:
+        support = [*half, *half[-2:0:-1]]  # h(-theta) = h(theta): 0 .. 180 degrees, then back to 0
+        angles = np.radians(np.arange(len(support)) * 360.0 / len(support))
+        corners = []
+        for k in range(len(support)):
+            a, b = angles[k], angles[(k + 1) % len(support)]
+            normals = np.array([[np.cos(a), np.sin(a)], [np.cos(b), np.sin(b)]])
+            corners.append(np.linalg.solve(normals, [support[k], support[(k + 1) % len(support)]]))
+        yz = np.array(corners)
+        ends = [np.column_stack([np.full(len(yz), x), yz]) for x in (lo, hi)]
+        prisms.append(hull_points(*ends))
+    return union(*prisms)
+
+
+def fitted(make: Callable[[], trimesh.Trimesh], name: str) -> Callable[[], trimesh.Trimesh]:
+    """An authored part clipped to its vendor envelope: a primitive that bulges past the real part (a
+    rounded box where the phalanx tapers) would make the fingers collide where the real ones pass."""
+    return lambda: inter(make(), envelope(name))
 
 
 SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
@@ -379,6 +423,7 @@ SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
     "m": lambda: svh_middle(22.0, -7.98, 6.03, 9.96),
     "q": svh_distal,
 }
+SVH |= {name: fitted(SVH[name], name) for name in ENVELOPES}
 
 # mirror (axis name) under which a link mesh must be invariant
 SVH_SYMMETRY = {
@@ -534,7 +579,7 @@ def finish(mesh_mm: trimesh.Trimesh, name: str) -> trimesh.Trimesh:
     bodies = m.split(only_watertight=False)
     if len(bodies) != 1:
         raise RuntimeError(f"{name}: {len(bodies)} separate pieces")
-    if len(m.faces) > 2500:
+    if len(m.faces) > MAX_TRIANGLES:
         raise RuntimeError(f"{name}: {len(m.faces)} triangles, too heavy")
     return m
 

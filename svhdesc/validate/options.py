@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+
+from .vendor_geometry import default_vendor_meshes
 
 
 @dataclass(frozen=True)
@@ -11,3 +13,5 @@ class Options:
     seed: int = 0
     samples: int = 100  # random configurations for the kinematics check
     plots: Path | None = None  # where contact-stability plots go
+    # the vendor's SVH description (collision_fidelity compares collision geometry with its visual meshes)
+    vendor_meshes: Path = field(default_factory=default_vendor_meshes)

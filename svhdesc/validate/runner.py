@@ -9,14 +9,18 @@ from pathlib import Path
 
 from ..errors import SvhdescError
 from .collision import check_self_collision
+from .collision_fidelity import check_collision_fidelity
 from .contact_stability import check_contact_stability
 from .coupling import check_coupling_spec, check_limits
+from .fingertip_force import check_fingertip_force
+from .grasps import check_grasps
 from .kinematics import check_kinematics
 from .load_limits import check_load_limits
 from .mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
 from .options import Options
 from .pair import ModelPair, load_pair
 from .parsers import check_sdformat, check_urdfdom, check_yourdfpy
+from .range_of_motion import check_range_of_motion
 from .report import FAIL, Check, VariantReport
 from .semantics import check_semantics
 from .simulate import check_simulation
@@ -41,7 +45,11 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_semantics, ("semantics",)),
     (check_load_limits, ("load_limits",)),
     (check_self_collision, ("self_collision",)),
+    (check_collision_fidelity, ("collision_fidelity",)),
+    (check_range_of_motion, ("range_of_motion",)),
     (check_contact_stability, ("contact_stability",)),
+    (check_fingertip_force, ("fingertip_force",)),
+    (check_grasps, ("grasps",)),
 ]
 CHECK_NAMES: tuple[str, ...] = tuple(name for _, names in STAGES for name in names)
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -49,6 +57,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "mass": ("mass_budget", "inertia", "min_mass", "mass_agreement"),
     "coupling": ("coupling_tracking", "coupling_spec", "limits"),
     "margins": ("coupling_tracking", "load_limits"),
+    "fidelity": ("collision_fidelity", "range_of_motion", "fingertip_force", "grasps"),
 }
 
 

@@ -1,0 +1,176 @@
+"""Collision geometry touches only where the real parts do.
+
+Over poses across the full range (each hand channel swept alone, then random poses of all of them; coupled
+joints follow their polynomial), every pair of bodies whose collision geoms touch in the MJCF is compared
+with the vendor's visual meshes of the same two links, placed by the same body poses: a pair whose collision
+geometry touches while the vendor parts stay more than GAP apart is a modelling error (it stops a finger
+where the real hand moves freely). Pairs with a body the vendor does not describe (the arm) are not judged.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..polynomial import polyval
+from .options import Options
+from .pair import ModelPair, actuated_joints, joint_equalities
+from .report import Check, not_run, verdict
+from .vendor_geometry import REFINE_BELOW, vendor_links
+
+SWEEP_STEPS = 11  # poses per channel swept alone, ends included
+RANDOM_POSES = 1000
+# Collision geoms count as touching at any depth: the thumb-blocking bracket pair of issue 15 was only
+# 0.28 mm deep, so a depth tolerance would let exactly that fault through. The vendor gap carries the slack.
+DEPTH = 0.0  # m
+GAP = 1e-3  # m between the vendor meshes
+CANDIDATES_PER_PAIR = 200  # touching poses judged per pair: the deepest half, the rest spread over the others
+
+
+def hand_prefix(model: Any) -> str | None:
+    """``right_hand`` from the joint ``right_hand_Thumb_Flexion`` (None without an SVH)."""
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name.endswith("_Thumb_Flexion"):
+            return name.removesuffix("_Thumb_Flexion")
+    return None
+
+
+def hand_side(pair: ModelPair, prefix: str) -> str:
+    side = pair.variant.args.get("side") if pair.variant is not None else None
+    return str(side) if side in ("left", "right") else ("left" if prefix.startswith("left") else "right")
+
+
+def base_qpos(model: Any) -> np.ndarray:
+    import mujoco
+
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    return model.key_qpos[home].copy() if home >= 0 else model.qpos0.copy()
+
+
+def sample_poses(channels: dict[str, tuple[float, float]], rng: np.random.Generator) -> list[dict[str, float]]:
+    """Each channel swept alone (the others at their lower end), then uniform random poses of all channels."""
+    poses = []
+    lows = {name: low for name, (low, _) in channels.items()}
+    for name, (low, high) in channels.items():
+        poses.extend({**lows, name: float(v)} for v in np.linspace(low, high, SWEEP_STEPS))
+    for _ in range(RANDOM_POSES):
+        poses.append({name: float(rng.uniform(low, high)) for name, (low, high) in channels.items()})
+    return poses
+
+
+def place(model: Any, data: Any, base: np.ndarray, pose: dict[str, float], equalities: list[Any]) -> None:
+    """Channels from ``pose``, coupled joints from their polynomial, the rest from ``base``; positions and contacts."""
+    import mujoco
+
+    data.qpos[:] = base
+    for name, value in pose.items():
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+    for e in equalities:
+        leader = data.qpos[model.jnt_qposadr[model.joint(e.channel).id]]
+        data.qpos[model.jnt_qposadr[model.joint(e.joint).id]] = polyval(e.coeffs, leader)
+    mujoco.mj_fwdPosition(model, data)
+
+
+def touching_pairs(model: Any, data: Any) -> dict[tuple[int, int], float]:
+    """(body, body) -> deepest penetration (m, >= 0) over their contacts; the world (a floor) left out."""
+    pairs: dict[tuple[int, int], float] = {}
+    for contact in data.contact[: data.ncon]:
+        b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
+        if b1 == 0 or b2 == 0 or -contact.dist < DEPTH:
+            continue
+        key = (min(b1, b2), max(b1, b2))
+        pairs[key] = max(pairs.get(key, 0.0), -float(contact.dist))
+    return pairs
+
+
+def _frame(data: Any, body: int) -> np.ndarray:
+    transform = np.eye(4)
+    transform[:3, :3] = data.xmat[body].reshape(3, 3)
+    transform[:3, 3] = data.xpos[body]
+    return transform
+
+
+def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
+    import mujoco
+
+    bound = f"0 pairs touching while the vendor meshes are > {GAP * 1e3:g} mm apart"
+    if pair.model is None:
+        return [not_run("collision_fidelity", "the MJCF does not compile", bound)]
+    model = pair.model
+    prefix = hand_prefix(model)
+    if prefix is None:
+        return [not_run("collision_fidelity", "no SVH hand in the model", bound)]
+    folder = Path(options.vendor_meshes)
+    if not (folder / "description" / "urdf" / "svh.urdf.xacro").is_file():
+        # --allow-missing-tools lets it through (an installed wheel has no vendor folder beside it); never silent.
+        reason = f"skipped: vendor meshes not found ({folder}; --vendor-meshes)"
+        return [not_run("collision_fidelity", reason, bound, missing_tool="vendor meshes")]
+    vendor = vendor_links(folder.resolve(), hand_side(pair, prefix))
+    suffix = {b: model.body(b).name.removeprefix(f"{prefix}_") for b in range(model.nbody)}
+    judged = {b for b in range(model.nbody) if model.body(b).name.startswith(f"{prefix}_") and suffix[b] in vendor}
+    channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
+    equalities = joint_equalities(model)
+    poses = sample_poses(channels, np.random.default_rng(options.seed))
+    data, base = mujoco.MjData(model), base_qpos(model)
+
+    candidates: dict[tuple[int, int], list[tuple[float, int]]] = {}
+    unjudged: set[tuple[str, str]] = set()
+    for index, pose in enumerate(poses):
+        place(model, data, base, pose, equalities)
+        for (b1, b2), depth in touching_pairs(model, data).items():
+            if b1 in judged and b2 in judged:
+                candidates.setdefault((b1, b2), []).append((depth, index))
+            else:
+                unjudged.add((model.body(b1).name, model.body(b2).name))
+
+    findings = []
+    for (b1, b2), hits in sorted(candidates.items()):
+        hits.sort(reverse=True)
+        # Deepest poses first, spread over the rest: a pair is judged on its worst case and a fair sample.
+        half = CANDIDATES_PER_PAIR // 2
+        picked = hits[:half] + hits[half :: max(1, (len(hits) - half) // half)]
+        a, b = (b1, b2) if len(vendor[suffix[b1]].points) <= len(vendor[suffix[b2]].points) else (b2, b1)
+        for depth, index in picked:
+            place(model, data, base, poses[index], equalities)
+            a_to_b = np.linalg.inv(_frame(data, b)) @ _frame(data, a)
+            gap = vendor[suffix[a]].distance(vendor[suffix[b]], a_to_b)
+            if gap > GAP:
+                findings.append(
+                    {
+                        "bodies": [model.body(b1).name, model.body(b2).name],
+                        "depth_mm": round(depth * 1e3, 3),
+                        "vendor_gap_mm": round(gap * 1e3, 3),
+                        "touching_poses": len(hits),
+                        "pose": {k.removeprefix(f"{prefix}_"): round(v, 4) for k, v in poses[index].items()},
+                    }
+                )
+                break
+    detail = "; ".join(
+        f"{f['bodies'][0]}/{f['bodies'][1]} touch ({f['depth_mm']:.2f} mm deep) with the vendor parts "
+        f"{'>= ' if f['vendor_gap_mm'] >= REFINE_BELOW * 1e3 else ''}{f['vendor_gap_mm']:.2f} mm apart"
+        for f in findings
+    )
+    summary = (
+        f"{len(poses)} poses ({len(channels)} channels x {SWEEP_STEPS} + {RANDOM_POSES} random), "
+        f"{len(candidates)} touching pairs judged against {folder.name}"
+    )
+    return [
+        Check(
+            "collision_fidelity",
+            verdict(not findings),
+            f"{len(findings)} pairs",
+            bound,
+            detail or summary,
+            {
+                "findings": findings,
+                "poses": len(poses),
+                "judged_pairs": sorted([model.body(p).name, model.body(q).name] for p, q in candidates),
+                "unjudged_pairs": sorted(list(p) for p in unjudged),
+                "vendor_meshes": str(folder),
+                "gap_m": GAP,
+            },
+        )
+    ]

@@ -1,0 +1,173 @@
+"""The checks against the real hand: range_of_motion (every channel end to end, contacts and gravity on) and
+collision_fidelity (collision geometry touches only where the vendor's parts do), with their seeded faults."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from svhdesc.validate.collision_fidelity import check_collision_fidelity
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import load_pair
+from svhdesc.validate.range_of_motion import check_range_of_motion
+
+from .support import VARIANTS, VENDOR_SVH
+
+REPO = Path(__file__).resolve().parents[1]
+GENERATED = REPO / "generated"
+OPTIONS = Options(vendor_meshes=VENDOR_SVH)
+# Pairs whose collision geometry still touches early (1099 poses, seed 0): finger against finger, 0.01-2.4 mm deep
+# where the vendor parts stay 1.05-2.8 mm apart, nine of them with a middle phalanx (p, o, n, m), whose convex
+# hulls fill the parts' waist (README, Validation). Listed so that any new pair fails; the strict xfail below
+# turns red once they are all fixed.
+KNOWN_FIDELITY_GAPS = {
+    ("l", "n"),
+    ("p", "r"),
+    ("k", "j"),
+    ("o", "m"),
+    ("o", "q"),
+    ("o", "j"),
+    ("o", "n"),
+    ("o", "r"),
+    ("s", "j"),
+    ("s", "n"),
+    ("n", "b"),
+}
+
+
+def known_gaps_only(check: dict) -> bool:
+    """A collision_fidelity result (JSON form) that lists nothing beyond KNOWN_FIDELITY_GAPS."""
+    found = {tuple(b.split("_hand_", 1)[1] for b in f["bodies"]) for f in check["data"]["findings"]}
+    return found <= KNOWN_FIDELITY_GAPS
+
+
+needs_vendor = pytest.mark.skipif(
+    not (VENDOR_SVH / "description" / "urdf" / "svh.urdf.xacro").is_file(),
+    reason=f"vendor meshes not found at {VENDOR_SVH}",
+)
+
+
+def pair_of(directory: Path):
+    return load_pair(directory / f"{directory.name}.urdf", directory / f"{directory.name}.xml")
+
+
+def inflated_bracket(tmp_path: Path, factor: float = 1.3) -> Path:
+    """A copy of svh_right whose ring-finger bracket hull nearest the middle one is scaled about its centroid."""
+    import mujoco
+
+    target = tmp_path / "svh_right"
+    shutil.copytree(GENERATED / "svh_right", target)
+    model = pair_of(target).model
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ring, middle = (model.body(f"right_hand_virtual_{s}").id for s in "jk")
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == ring and model.geom_contype[g]]
+    others = [g for g in range(model.ngeom) if model.geom_bodyid[g] == middle and model.geom_contype[g]]
+    nearest = min(geoms, key=lambda g: min(mujoco.mj_geomDistance(model, data, g, o, 0.05, None) for o in others))
+    mesh = model.mesh(int(model.geom_dataid[nearest])).name
+    path = target / "assets" / f"{mesh}.obj"
+    lines = path.read_text().splitlines()
+    vertices = np.array([[float(v) for v in line.split()[1:4]] for line in lines if line.startswith("v ")])
+    scaled = iter(vertices.mean(axis=0) + factor * (vertices - vertices.mean(axis=0)))
+    path.write_text(
+        "\n".join("v " + " ".join(repr(float(x)) for x in next(scaled)) if ln.startswith("v ") else ln for ln in lines)
+        + "\n"
+    )
+    return target
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_every_channel_reaches_both_ends_with_contacts_on(variant: str) -> None:
+    (check,) = check_range_of_motion(pair_of(GENERATED / variant), OPTIONS)
+    assert check.status == "pass", check.detail
+    channels = check.data["channels"]
+    assert len(channels) == 9
+    for name, entry in channels.items():
+        low, high = entry["range"]
+        assert entry["fraction"] > 0.98, name
+        assert abs(entry["reached"][1] - high) <= 0.01 * (high - low), name
+        for follower, reached in entry["followers"].items():
+            assert set(reached) == {"start", "upper", "lower"}, follower
+    assert "Thumb_Opposition" in check.table
+
+
+def test_inflated_palm_hull_fails_range_of_motion_naming_channel_and_pair(tmp_path: Path) -> None:
+    (check,) = check_range_of_motion(pair_of(inflated_bracket(tmp_path)), OPTIONS)
+    assert check.status == "fail"
+    assert "Thumb_Opposition stops at" in check.detail
+    assert "right_hand_virtual_k/right_hand_virtual_j" in check.detail
+    blocked = check.data["channels"]["right_hand_Thumb_Opposition"]["blocked_by"]["upper"]
+    assert blocked[0] == "right_hand_virtual_k/right_hand_virtual_j"
+
+
+@needs_vendor
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_collision_fidelity_finds_no_pair_beyond_the_known_ones(variant: str) -> None:
+    (check,) = check_collision_fidelity(pair_of(GENERATED / variant), OPTIONS)
+    assert check.status in ("pass", "fail"), check.detail
+    assert check.data["poses"] > 100 and check.data["judged_pairs"]
+    assert known_gaps_only({"data": check.data})
+    # The thumb-blocking pair of issue 15 is gone.
+    assert not any("virtual_j" in f["bodies"][0] + f["bodies"][1] for f in check.data["findings"])
+
+
+@needs_vendor
+@pytest.mark.xfail(strict=True, reason="known gaps: " + ", ".join("/".join(p) for p in sorted(KNOWN_FIDELITY_GAPS)))
+def test_collision_fidelity_is_empty() -> None:
+    (check,) = check_collision_fidelity(pair_of(GENERATED / "svh_right"), OPTIONS)
+    assert check.status == "pass", check.detail
+
+
+@needs_vendor
+def test_inflated_palm_hull_appears_in_collision_fidelity(tmp_path: Path) -> None:
+    (check,) = check_collision_fidelity(pair_of(inflated_bracket(tmp_path)), OPTIONS)
+    assert check.status == "fail"
+    bodies = [f["bodies"] for f in check.data["findings"]]
+    assert ["right_hand_virtual_k", "right_hand_virtual_j"] in bodies
+    finding = check.data["findings"][bodies.index(["right_hand_virtual_k", "right_hand_virtual_j"])]
+    assert finding["vendor_gap_mm"] > 1.0
+
+
+def test_missing_vendor_meshes_are_reported_not_skipped_silently(tmp_path: Path) -> None:
+    source = GENERATED / "svh_right"
+    report = tmp_path / "report.json"
+    args = [sys.executable, "-m", "svhdesc.cli", "validate", "--urdf", str(source / "svh_right.urdf")]
+    args += ["--mjcf", str(source / "svh_right.xml"), "--checks", "collision_fidelity", "--json", str(report)]
+    result = subprocess.run([*args, "--vendor-meshes", str(tmp_path)], cwd=REPO, capture_output=True, text=True)
+    assert result.returncode == 1
+    assert "skipped: vendor meshes not found" in result.stdout
+    (check,) = json.loads(report.read_text())["variants"][0]["checks"]
+    assert check["status"] == "not run" and check["missing_tool"] == "vendor meshes"
+
+
+@needs_vendor
+@pytest.mark.parametrize("fraction, overlapping", [(0.5, True), (0.95, True), (0.3, False)])
+def test_all_channels_at_once_jam_the_real_fingers_too(fraction: float, overlapping: bool) -> None:
+    """README: with every channel at 50 % or 95 % of its range the vendor parts of neighbouring fingers meet (so the
+    real hand cannot take that pose either); at 30 % they are apart."""
+    import mujoco
+
+    from svhdesc.validate.collision_fidelity import _frame, base_qpos, place
+    from svhdesc.validate.pair import actuated_joints, joint_equalities
+    from svhdesc.validate.vendor_geometry import vendor_links
+
+    model = pair_of(GENERATED / "svh_right").model
+    data = mujoco.MjData(model)
+    pose = {n: lo + fraction * (hi - lo) for n, (lo, hi) in actuated_joints(model).items()}
+    place(model, data, base_qpos(model), pose, joint_equalities(model))
+    vendor = vendor_links(VENDOR_SVH.resolve(), "right")
+    fingers = [("l", "p", "t"), ("k", "o", "s"), ("j", "n", "r"), ("i", "m", "q")]
+    gaps = []
+    for one, other in zip(fingers, fingers[1:]):  # neighbouring fingers, every segment against every segment
+        for a in one:
+            for b in other:
+                ida, idb = model.body(f"right_hand_{a}").id, model.body(f"right_hand_{b}").id
+                transform = np.linalg.inv(_frame(data, idb)) @ _frame(data, ida)
+                gaps.append(vendor[a].distance(vendor[b], transform))
+    assert (min(gaps) < 5e-5) == overlapping, min(gaps)
