@@ -24,7 +24,7 @@ from ..ir import Robot
 from .mjcf import collision_meshes, mjcf_tree, scene_tree
 from .xmlfmt import serialise
 
-MAX_HULL_VERTICES = 32
+MAX_HULL_VERTICES = 20  # a hull this small cannot have a face above MJX's 20-vertex limit
 SIZE_MARGIN = 2.0  # capacities = margin x the sampled worst case, rounded up to a multiple of SIZE_STEP
 SIZE_STEP = 8
 SCENE_FILE = "scene_batch.xml"
