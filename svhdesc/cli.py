@@ -263,7 +263,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, contact_stability; or groups: parsers, mass, coupling, margins. Default: all.",
+    "self_collision, contact_stability, batch; or groups: parsers, mass, coupling, margins. Default: all.",
 )
 @click.option(
     "--samples",

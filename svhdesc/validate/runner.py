@@ -8,6 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import SvhdescError
+from .batch import check_batch
 from .collision import check_self_collision
 from .contact_stability import check_contact_stability
 from .coupling import check_coupling_spec, check_limits
@@ -42,6 +43,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_load_limits, ("load_limits",)),
     (check_self_collision, ("self_collision",)),
     (check_contact_stability, ("contact_stability",)),
+    (check_batch, ("batch",)),
 ]
 CHECK_NAMES: tuple[str, ...] = tuple(name for _, names in STAGES for name in names)
 GROUPS: dict[str, tuple[str, ...]] = {
