@@ -92,4 +92,9 @@ def export_batch_scene(robot: Robot) -> bytes:
     for geom in root.iterfind("worldbody/geom"):  # floor, pedestal: collide with the robot, stated
         geom.set("contype", "1")
         geom.set("conaffinity", "1")
+        if geom.get("type") == "cylinder":
+            # MJX has no cylinder-mesh collision: the pedestal becomes the square box around the cylinder.
+            radius, half_height = geom.get("size").split()
+            geom.set("type", "box")
+            geom.set("size", f"{radius} {radius} {half_height}")
     return serialise(root)
