@@ -182,3 +182,22 @@ def test_overflow_raises_and_reset_is_per_world() -> None:
     small.reset("home")
     with pytest.raises(BatchOverflow, match="overflow"):
         small.step(closed, nstep=300)
+
+
+def test_capacity_sizing_sees_the_pairs_warp_tests() -> None:
+    """The build's broadphase replica starts from the same collision pairs as MuJoCo Warp's."""
+    import warp as wp
+    from mujoco_warp import put_model
+
+    from svhdesc.batch_sizing import collision_pairs
+
+    path = svhdesc.get("ur5_svh_right").batch_scene_path
+    model = mujoco.MjModel.from_xml_path(str(path))
+    with wp.ScopedDevice("cpu"):
+        warp_pairs = {tuple(p) for p in put_model(model).nxn_geom_pair_filtered.numpy().tolist()}
+    assert {tuple(p) for p in collision_pairs(model).tolist()} == warp_pairs
+    # Seeded fault: the same model without its self-collision exclusions gives other pairs.
+    spec = mujoco.MjSpec.from_file(str(path))
+    for exclude in list(spec.excludes):
+        spec.delete(exclude)
+    assert {tuple(p) for p in collision_pairs(spec.compile()).tolist()} != warp_pairs
