@@ -201,3 +201,14 @@ def test_capacity_sizing_sees_the_pairs_warp_tests() -> None:
     for exclude in list(spec.excludes):
         spec.delete(exclude)
     assert {tuple(p) for p in collision_pairs(spec.compile()).tolist()} != warp_pairs
+
+
+def test_mjx_accepts_the_batch_scene_not_the_main_one() -> None:
+    """MJX (JAX on CPU) takes ur5_svh_right's batch scene; the main scene (cylinder pedestal) it refuses."""
+    pytest.importorskip("mujoco.mjx")
+    from svhdesc.validate.batch import mjx_accepts
+
+    model = svhdesc.get("ur5_svh_right")
+    assert mjx_accepts(mujoco.MjModel.from_xml_path(str(model.batch_scene_path))) == []
+    with pytest.raises(NotImplementedError, match="CYLINDER"):
+        mjx_accepts(mujoco.MjModel.from_xml_path(str(model.scene_path)))

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE
+from ..extras import MissingExtra
 from .options import Options
 from .pair import ModelPair
 from .report import Check, not_run, summary, verdict
@@ -124,8 +125,8 @@ def mjx_accepts(model: Any) -> list[str]:
 def _engine(name: str, run: Any) -> tuple[str, Any]:
     try:
         return "ok", run()
-    except ModuleNotFoundError as exc:
-        return "missing", f"{exc.name} is not installed (pip install 'svhdesc[batch-mjx]')"
+    except (ModuleNotFoundError, MissingExtra) as exc:
+        return "missing", f"{getattr(exc, 'name', None) or exc} (pip install 'svhdesc[batch-mjx]')"
     except Exception as exc:  # what the engine refuses is the finding
         return "refused", f"{type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
 
@@ -144,6 +145,9 @@ def check_batch(pair: ModelPair, options: Options) -> list[Check]:
     problems = compare_to_main(main, batch)
     warp_status, warp = _engine("warp", lambda: warp_rollout(batch, seed=options.seed))
     mjx_status, mjx = _engine("mjx", lambda: mjx_accepts(batch))
+    missing = [text for status, text in ((warp_status, warp), (mjx_status, mjx)) if status == "missing"]
+    if missing:
+        return [not_run("batch", "; ".join(missing), bound, missing_tool="svhdesc[batch-mjx]")]
     if warp_status != "ok":
         problems.append(f"MuJoCo Warp: {warp}")
     if mjx_status != "ok":
