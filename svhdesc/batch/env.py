@@ -129,11 +129,17 @@ class BatchEnv:
 
     def _launch_graph(self, nstep: int) -> None:
         # On a GPU the kernel launches of one step cost more than the physics: replay a captured graph.
+        # Kernels load lazily and cannot load during a capture, so the first call steps plainly.
+        if not self._graphs:
+            self._graphs[0] = None
+            for _ in range(nstep):
+                self.mjw.step(self.model, self.data)
+            return
         if nstep not in self._graphs:
             with self.wp.ScopedCapture() as capture:
                 for _ in range(nstep):
                     self.mjw.step(self.model, self.data)
-            self._graphs[nstep] = capture.graph
+            self._graphs[nstep] = capture.graph  # recorded, not run: launched below
         self.wp.capture_launch(self._graphs[nstep])
 
     def check_overflow(self) -> None:
