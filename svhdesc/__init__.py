@@ -2,7 +2,7 @@
 
 import svhdesc
 svhdesc.variants()                      # ['svh_left', 'svh_right', 'ur5_svh_right']
-model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path
+model = svhdesc.get("ur5_svh_right")    # .urdf_path .mjcf_path .scene_path .batch_scene_path
 svhdesc.URDF_PATH, svhdesc.MJCF_PATH    # the UR5 + right hand
 m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
 model.package_name                      # each variant folder is a ROS package (package://NAME/assets/...)
@@ -53,6 +53,15 @@ class Model:
     @property
     def scene_path(self) -> Path:
         return self.directory / "scene.xml"
+
+    @property
+    def batch_path(self) -> Path:
+        """The batch model for MuJoCo Warp / MJX (svhdesc.batch)."""
+        return self.directory / f"{self.name}_batch.xml"
+
+    @property
+    def batch_scene_path(self) -> Path:
+        return self.directory / "scene_batch.xml"
 
     @property
     def package_name(self) -> str:

@@ -7,14 +7,17 @@ from pathlib import Path
 
 from . import manifest as manifest_file
 from .agreement import file_difference, manifest_difference
+from .batch_sizing import sample_capacities
 from .config import Config, Variant
 from .decompose.source import HullSource
 from .errors import SvhdescError
+from .export import batch as batch_export
 from .export.mjcf import export_mjcf, export_scene
 from .export.package import export_package_xml, mesh_uri_prefix
 from .export.urdf import export_urdf
 from .finite import check_finite
 from .freshness import portable, sha256, svhdesc_version, tool_versions
+from .ir import Robot
 from .outdir import output_directory, publish
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .ros_outputs import EXECUTABLE, ros_outputs
@@ -46,6 +49,9 @@ def write_variant(
     }
     with timings.stage("export"):
         outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets))
+    with timings.stage("batch"):
+        outputs.update(batch_outputs(robot, directory / "assets"))
+    with timings.stage("export"):
         for name, data in outputs.items():
             (directory / name).parent.mkdir(parents=True, exist_ok=True)
             (directory / name).write_bytes(data)
@@ -69,6 +75,14 @@ def write_variant(
         "tools": tool_versions(),
     }
     manifest_file.write(directory, manifest)
+
+
+def batch_outputs(robot: Robot, assets: Path) -> dict[str, bytes]:
+    """The batch model and its scene, capacities sized by stepping the unsized model in MuJoCo C."""
+    name = batch_export.model_file(robot.name)
+    scene = batch_export.export_batch_scene(robot)
+    capacities = sample_capacities(scene, name, batch_export.export_batch(robot, None), assets)
+    return {name: batch_export.export_batch(robot, capacities), batch_export.SCENE_FILE: scene}
 
 
 def _prepare(

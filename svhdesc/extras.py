@@ -26,6 +26,9 @@ EXTRA_OF: dict[str, tuple[str, str]] = {
     "pybullet": ("pybullet", "engines"),
     "dartpy": ("dartpy", "engines"),
     "pydrake": ("drake", "engines"),
+    "warp": ("warp-lang", "batch"),
+    "mujoco_warp": ("mujoco-warp", "batch"),
+    "jax": ("jax", "batch-mjx"),
 }
 
 

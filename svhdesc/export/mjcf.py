@@ -238,6 +238,11 @@ def _defaults(root: etree._Element, robot: Robot, classes: list[DefaultClass]) -
         sub(sub(top, "default", class_=cls.name), cls.tag, **cls.shared)
 
 
+def collision_meshes(robot: Robot) -> set[str]:
+    """Names of the mesh assets that collision geoms use."""
+    return {_mesh_name(g.mesh) for link in robot.links for g in link.collisions if g.kind == "mesh"}  # type: ignore[arg-type]
+
+
 def _assets(root: etree._Element, robot: Robot) -> None:
     asset = sub(root, "asset")
     meshes = sorted({g.mesh for link in robot.links for g in (*link.visuals, *link.collisions) if g.kind == "mesh"})
@@ -307,6 +312,11 @@ def _keyframes(root: etree._Element, robot: Robot) -> None:
 
 
 def export_mjcf(robot: Robot) -> bytes:
+    return serialise(mjcf_tree(robot))
+
+
+def mjcf_tree(robot: Robot) -> etree._Element:
+    """The MJCF as an element tree (the batch exporter derives its model from it)."""
     gravcomp = robot.physics.gravity_compensation
     classes, joint_role, actuator_role = _default_classes(robot, gravcomp)
     by_name = {(c.tag, c.name): c for c in classes}
@@ -325,11 +335,15 @@ def export_mjcf(robot: Robot) -> bytes:
     for element in list(root):
         if element.tag in {"contact", "equality", "actuator", "sensor", "keyframe"} and len(element) == 0:
             root.remove(element)
-    return serialise(root)
+    return root
 
 
 def export_scene(robot: Robot, model_file: str) -> bytes:
     """Menagerie-style scene: the model, a floor, light; an arm stands on a pedestal if the floor is lower."""
+    return serialise(scene_tree(robot, model_file))
+
+
+def scene_tree(robot: Robot, model_file: str) -> etree._Element:
     floor_z = robot.ground.floor_z
     pedestal = robot.ground.pedestal_radius
     root = etree.Element("mujoco", model=f"{robot.name} scene")
@@ -393,4 +407,4 @@ def export_scene(robot: Robot, model_file: str) -> bytes:
         type="plane",
         material="groundplane",
     )
-    return serialise(root)
+    return root

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import SvhdescError
+from .batch import check_batch
 from .collision import check_self_collision
 from .collision_fidelity import check_collision_fidelity
 from .contact_stability import check_contact_stability
@@ -50,6 +51,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_contact_stability, ("contact_stability",)),
     (check_fingertip_force, ("fingertip_force",)),
     (check_grasps, ("grasps",)),
+    (check_batch, ("batch",)),
 ]
 CHECK_NAMES: tuple[str, ...] = tuple(name for _, names in STAGES for name in names)
 GROUPS: dict[str, tuple[str, ...]] = {

@@ -1,0 +1,116 @@
+"""Size the batch model's contact and constraint capacities from a sampled worst case (MuJoCo C, build time).
+
+Rollouts of ROLLOUT_S seconds in ``scene_batch.xml`` from keyframe ``home`` (else qpos0), servo targets held:
+every actuator at its lower limit, every one at its upper limit (a closed fist, an open hand), then
+RANDOM_ROLLOUTS draws uniform in the control ranges (fixed seed: the build stays deterministic). The most
+contacts, constraint rows and broadphase candidates any step had are the worst case.
+
+MuJoCo Warp keeps broadphase candidates in a buffer of the same capacity, so they count: a candidate here
+is a geom pair MuJoCo's filters let collide (contype/conaffinity, excludes, same or parent body) that passes
+Warp's default broadphase tests (see broadphase_candidates), evaluated on MuJoCo C's double-precision state.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .export.batch import Capacities
+
+ROLLOUT_S = 1.0
+RANDOM_ROLLOUTS = 4
+SEED = 0
+
+
+def _targets(model: object) -> list[np.ndarray]:
+    low, high = model.actuator_ctrlrange[:, 0], model.actuator_ctrlrange[:, 1]  # type: ignore[attr-defined]
+    rng = np.random.default_rng(SEED)
+    return [low.copy(), high.copy(), *(rng.uniform(low, high) for _ in range(RANDOM_ROLLOUTS))]
+
+
+def collision_pairs(model: Any) -> np.ndarray:
+    """Geom pairs MuJoCo's filters allow to collide (rows of two geom ids), as in mj_collision."""
+    weld = model.body_weldid
+    parent_weld = weld[model.body_parentid[weld]]
+    excluded = set(int(s) for s in model.exclude_signature)
+    filterparent = not model.opt.disableflags & 1 << 9  # mjDSBL_FILTERPARENT
+    pairs = []
+    for g1 in range(model.ngeom):
+        for g2 in range(g1 + 1, model.ngeom):
+            type1, type2 = model.geom_contype, model.geom_conaffinity
+            if not (type1[g1] & type2[g2] or type1[g2] & type2[g1]):
+                continue
+            b1, b2 = int(model.geom_bodyid[g1]), int(model.geom_bodyid[g2])
+            w1, w2 = int(weld[b1]), int(weld[b2])
+            if w1 == w2:
+                continue
+            if filterparent and w1 != 0 and w2 != 0 and (parent_weld[b1] == w2 or parent_weld[b2] == w1):
+                continue
+            if (min(b1, b2) << 16) + max(b1, b2) in excluded:
+                continue
+            pairs.append((g1, g2))
+    return np.array(pairs, dtype=int).reshape(-1, 2)
+
+
+def broadphase_candidates(model: Any, data: Any, pairs: np.ndarray) -> int:
+    """Pairs that pass Warp's default broadphase: bounding spheres overlap, then oriented bounding boxes
+    overlap along the six face normals (mj_collideOBB); a plane and a bounding sphere that reaches it."""
+    g1, g2 = pairs[:, 0], pairs[:, 1]
+    r1, r2 = model.geom_rbound[g1], model.geom_rbound[g2]
+    margin = model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]
+    pos1, pos2 = data.geom_xpos[g1], data.geom_xpos[g2]
+    mat1, mat2 = data.geom_xmat[g1].reshape(-1, 3, 3), data.geom_xmat[g2].reshape(-1, 3, 3)
+    offset = pos2 - pos1
+    reach = r1 + r2 + margin
+    spheres = (offset * offset).sum(axis=1) <= reach * reach
+    above1 = (offset * mat1[:, :, 2]).sum(axis=1) <= r2 + margin  # geom 1 a plane: its normal is local z
+    above2 = (-offset * mat2[:, :, 2]).sum(axis=1) <= r1 + margin
+    hits = int(np.count_nonzero(np.where(r1 == 0, above1, False) | np.where(r2 == 0, above2, False)))
+    near = np.flatnonzero(spheres & (r1 > 0) & (r2 > 0))
+    return hits + _boxes_overlap(model, data, g1[near], g2[near], margin[near])
+
+
+def _boxes_overlap(model: Any, data: Any, g1: np.ndarray, g2: np.ndarray, margin: np.ndarray) -> int:
+    """Oriented bounding boxes (geom_aabb in each geom frame) overlapping along the six face normals."""
+    pos1, pos2 = data.geom_xpos[g1], data.geom_xpos[g2]
+    mat1, mat2 = data.geom_xmat[g1].reshape(-1, 3, 3), data.geom_xmat[g2].reshape(-1, 3, 3)
+    aabb1, aabb2 = model.geom_aabb[g1].reshape(-1, 2, 3), model.geom_aabb[g2].reshape(-1, 2, 3)
+    centre1 = np.einsum("nij,nj->ni", mat1, aabb1[:, 0]) + pos1
+    centre2 = np.einsum("nij,nj->ni", mat2, aabb2[:, 0]) + pos2
+    axes = np.concatenate([mat1, mat2], axis=2)  # n x 3 x 6: the candidate separating axes
+    gap = np.abs(np.einsum("ni,nik->nk", centre2 - centre1, axes))
+    radius1 = np.abs(np.einsum("nij,nik->njk", mat1, axes) * aabb1[:, 1, :, None]).sum(axis=1)
+    radius2 = np.abs(np.einsum("nij,nik->njk", mat2, axes) * aabb2[:, 1, :, None]).sum(axis=1)
+    return int(np.count_nonzero((radius1 + radius2 + margin[:, None] >= gap).all(axis=1)))
+
+
+def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
+    """Capacities for the batch model ``model_xml`` (file name ``model_name``), meshes under ``assets``."""
+    import mujoco
+
+    with tempfile.TemporaryDirectory(prefix="svhdesc-batch-") as tmp:
+        # The scene includes the model by file name and the model finds its meshes under assets/.
+        (Path(tmp) / model_name).write_bytes(model_xml)
+        (Path(tmp) / "scene.xml").write_bytes(scene_xml)
+        (Path(tmp) / "assets").symlink_to(assets.resolve(), target_is_directory=True)
+        model = mujoco.MjModel.from_xml_path(str(Path(tmp) / "scene.xml"))
+    data = mujoco.MjData(model)
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    steps = int(round(ROLLOUT_S / model.opt.timestep))
+    pairs = collision_pairs(model)
+    worst_ncon = worst_nefc = worst_candidates = 0
+    for target in _targets(model):
+        if home >= 0:
+            mujoco.mj_resetDataKeyframe(model, data, home)
+        else:
+            mujoco.mj_resetData(model, data)
+        data.ctrl[:] = target
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+            worst_ncon = max(worst_ncon, int(data.ncon))
+            worst_nefc = max(worst_nefc, int(data.nefc))
+            worst_candidates = max(worst_candidates, broadphase_candidates(model, data, pairs))
+    return Capacities.from_worst_case(worst_ncon, worst_candidates, worst_nefc)
