@@ -26,6 +26,8 @@ EXTRA_OF: dict[str, tuple[str, str]] = {
     "pybullet": ("pybullet", "engines"),
     "dartpy": ("dartpy", "engines"),
     "pydrake": ("drake", "engines"),
+    "ompl": ("ompl", "plan"),
+    "ruckig": ("ruckig", "plan"),
 }
 
 
@@ -41,6 +43,7 @@ COMMAND_EXTRA: dict[str, str] = {
     "render": "sim",
     "sim": "sim",
     "compare": "engines",
+    "plan": "plan",
 }
 
 

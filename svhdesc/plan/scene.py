@@ -1,0 +1,146 @@
+"""Collision checking for the planner with MuJoCo's collision detection on the model's collision geoms
+(the same convex hulls the simulation uses), plus obstacles (boxes, cylinders) in the world.
+
+MoveIt's rules, not the simulator's: the MJCF's own <exclude> pairs and MuJoCo's parent-child filter are
+dropped, and only the SRDF's disable_collisions pairs are skipped. Coupled joints follow their channels
+through the model's joint equalities (the coupling polynomials).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import svhdesc
+
+from ..errors import SvhdescError
+from ..extras import require
+from .config import MoveItConfig
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A box (size = half extents x y z) or cylinder (size = radius, half height) fixed in the world."""
+
+    name: str
+    shape: str  # "box" | "cylinder"
+    size: tuple[float, ...]
+    position: tuple[float, float, float]
+
+
+class CollisionScene:
+    def __init__(self, variant: str, config: MoveItConfig, obstacles: Sequence[Obstacle] = ()) -> None:
+        mujoco = require("mujoco", "planning", "sim")
+        self._mj = mujoco
+        spec = mujoco.MjSpec.from_file(str(svhdesc.get(variant).mjcf_path))
+        for exclude in list(spec.excludes):
+            spec.delete(exclude)
+        bodies = {b.name for b in spec.bodies}
+        for pair in sorted(tuple(sorted(p)) for p in config.disabled):  # SRDF pairs: skipped in the narrow phase
+            if len(pair) == 2 and set(pair) <= bodies:
+                spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1])
+        kinds = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}
+        for obstacle in obstacles:
+            if obstacle.shape not in kinds:
+                raise SvhdescError(f"obstacle {obstacle.name}: shape must be box or cylinder, not {obstacle.shape}")
+            size = [*obstacle.size, 0.0, 0.0][:3]
+            spec.worldbody.add_geom(
+                name=obstacle.name, type=kinds[obstacle.shape], size=size, pos=list(obstacle.position)
+            )
+        self.model = spec.compile()
+        self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+        self.data = mujoco.MjData(self.model)
+        self.config = config
+        self.obstacles = tuple(obstacles)
+        model = self.model
+        self._qpos = {model.joint(j).name: int(model.joint(j).qposadr[0]) for j in range(model.njnt)}
+        self._body = [model.body(b).name for b in range(model.nbody)]
+        # Coupled joint = poly(channel) (mjEQ_JOINT: q1 - q1_0 = sum c_k (q2 - q2_0)^k).
+        rows = [e for e in range(model.neq) if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and model.eq_obj2id[e] >= 0]
+        coupled = model.jnt_qposadr[model.eq_obj1id[rows]]
+        channel = model.jnt_qposadr[model.eq_obj2id[rows]]
+        self._coupled, self._channel = coupled, channel
+        self._coupled0, self._channel0 = model.qpos0[coupled].copy(), model.qpos0[channel].copy()
+        self._poly = model.eq_data[rows, :5].copy()
+        self._powers = np.arange(5)
+        self.checks = 0
+
+    def joint_index(self, names: Sequence[str]) -> np.ndarray:
+        missing = [n for n in names if n not in self._qpos]
+        if missing:
+            raise SvhdescError(f"joints {missing} are not in the model")
+        return np.array([self._qpos[n] for n in names])
+
+    def set_state(self, positions: Mapping[str, float]) -> None:
+        for name, value in positions.items():
+            self.data.qpos[self._qpos[name]] = value
+        self._couple()
+
+    def _couple(self) -> None:
+        qpos = self.data.qpos
+        x = qpos[self._channel] - self._channel0
+        qpos[self._coupled] = self._coupled0 + (self._poly * x[:, None] ** self._powers).sum(axis=1)
+
+    def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
+        """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""
+        mujoco, model, data = self._mj, self.model, self.data
+        if index is not None and values is not None:
+            data.qpos[index] = values
+            self._couple()
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        self.checks += 1
+        if data.ncon == 0:
+            return []
+        found = []
+        for contact in data.contact[: data.ncon]:
+            if contact.dist >= -1e-6:
+                continue
+            a = self._body[model.geom_bodyid[contact.geom[0]]]
+            b = self._body[model.geom_bodyid[contact.geom[1]]]
+            if a == b or frozenset((a, b)) in self.config.disabled:
+                continue
+            found.append((a, b, -float(contact.dist)))
+        return found
+
+    def valid(self, index: np.ndarray, values: Sequence[float]) -> bool:
+        return not self.colliding_pairs(index, values)
+
+
+def load_obstacles(path: Path) -> list[Obstacle]:
+    """obstacles: [{name, shape: box|cylinder, size: [...], position: [x, y, z]}, ...]; errors name the entry."""
+    import math
+
+    import yaml
+
+    try:
+        document = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise SvhdescError(f"{path}: {exc.strerror}") from None
+    except yaml.YAMLError as exc:
+        raise SvhdescError(f"{path}: not YAML: {exc}") from None
+    entries = document.get("obstacles") if isinstance(document, dict) else None
+    if not isinstance(entries, list):
+        raise SvhdescError(f"{path}: expected an 'obstacles:' list")
+    found = []
+    for i, entry in enumerate(entries):
+        where = f"{path}: obstacles[{i}]"
+        try:
+            shape, size, position = (
+                entry["shape"],
+                [float(v) for v in entry["size"]],
+                [float(v) for v in entry["position"]],
+            )
+            name = str(entry.get("name", f"obstacle_{i}"))
+        except (TypeError, KeyError, ValueError) as exc:
+            raise SvhdescError(f"{where}: needs shape, size and position ({exc})") from None
+        want = {"box": 3, "cylinder": 2}.get(shape)
+        if want is None or len(size) != want or len(position) != 3:
+            raise SvhdescError(f"{where}: a box has 3 half sizes, a cylinder 2 (radius, half height); position x y z")
+        if not all(math.isfinite(v) for v in size + position) or min(size) <= 0:
+            raise SvhdescError(f"{where}: sizes must be positive and every number finite")
+        found.append(Obstacle(name, shape, tuple(size), tuple(position)))
+    return found
