@@ -551,6 +551,13 @@ def compare_command(
     default=None,
     help="With --ros: the connector YAML (default: the variant's config/connector.yaml).",
 )
+@click.option(
+    "--scene",
+    "scene_file",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="YAML obstacles/objects to add (those with a mass move freely); the format of 'svhdesc plan --scene'.",
+)
 @click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
 @_friendly
 def sim_command(
@@ -563,6 +570,7 @@ def sim_command(
     track: tuple[str, ...],
     rate: float,
     connector: Path | None,
+    scene_file: Path | None,
     ros_args: tuple[str, ...],
 ) -> None:
     """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
@@ -573,16 +581,19 @@ def sim_command(
     stray = [a for a in ros_args if ":=" not in a]
     if stray:
         raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
+    from .objects import load_obstacles
+
+    objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros:
         from .ros.node import run_node
 
-        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args))
+        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return
     if ros_args:
         raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
     from .sim.cli_run import run_plain
 
-    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo)
+    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo, objects)
 
 
 @main.command("plan")
@@ -613,8 +624,8 @@ def plan_command(
     import json
 
     require_extra("plan", "'svhdesc plan'")
+    from .objects import load_obstacles
     from .plan import PLANNERS, Planner
-    from .plan.scene import load_obstacles
 
     if (goal is None) == (pose is None):
         raise SvhdescError("give exactly one of --to STATE and --pose X Y Z ROLL PITCH YAW")

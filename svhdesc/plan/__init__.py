@@ -18,9 +18,10 @@ from collections.abc import Mapping, Sequence
 import svhdesc
 
 from ..errors import SvhdescError
+from ..objects import Obstacle
 from .config import MoveItConfig, load_config
 from .planner import PLANNERS, Plan, plan_motion, seed_ompl
-from .scene import CollisionScene, Obstacle
+from .scene import CollisionScene
 
 __all__ = ["Planner", "Plan", "Obstacle", "PLANNERS", "seed_ompl", "MoveItConfig"]
 

@@ -79,10 +79,16 @@ class Kinematics:
         index = scene.joint_index(joints)
         scene.set_state(rest)
         rng = np.random.default_rng(0)
+        found: list[np.ndarray] = []
+        origin = np.array(start, dtype=float)
         for attempt in range(attempts):
-            guess = np.array(start, dtype=float) if attempt == 0 else rng.uniform(lower, upper)
+            # The start first, then random states nearer and nearer to anywhere in the limits.
+            spread = min(1.0, 0.15 * attempt)
+            guess = np.clip(origin + spread * rng.uniform(lower - origin, upper - origin), lower, upper)
+            if attempt == 0:
+                guess = origin.copy()
             q = base.copy()
-            for _ in range(300):
+            for _ in range(500):
                 q[rows] = guess
                 pin.framesForwardKinematics(self.model, self.data, q)
                 error = pin.log6(self.data.oMf[frame].actInv(target)).vector
@@ -90,11 +96,16 @@ class Kinematics:
                     break
                 jacobian = pin.computeFrameJacobian(self.model, self.data, q, frame, pin.ReferenceFrame.LOCAL)
                 j = jacobian[:, columns]
-                step = j.T @ np.linalg.solve(j @ j.T + 1e-6 * np.eye(6), error)
+                step = j.T @ np.linalg.solve(j @ j.T + 1e-4 * np.eye(6), error)
+                step *= min(1.0, 0.3 / max(np.abs(step).max(), 1e-12))  # small steps: stay in one IK branch
                 guess = np.clip(guess + step, lower, upper)
             else:
                 continue
             if scene.valid(index, guess):
-                return guess.tolist()
+                found.append(guess.copy())
+                if len(found) >= 3 or attempt == 0:
+                    break
+        if found:
+            return min(found, key=lambda g: float(np.abs(g - origin).sum())).tolist()
         x, y, z = pose[:3]
         raise SvhdescError(f"no collision-free IK solution for {self.config.tips[group]} at ({x}, {y}, {z}) ...")

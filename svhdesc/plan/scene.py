@@ -9,8 +9,7 @@ through the model's joint equalities (the coupling polynomials).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
@@ -18,17 +17,13 @@ import svhdesc
 
 from ..errors import SvhdescError
 from ..extras import require
+from ..objects import Obstacle, add_objects
 from .config import MoveItConfig
 
 
-@dataclass(frozen=True)
-class Obstacle:
-    """A box (size = half extents x y z) or cylinder (size = radius, half height) fixed in the world."""
-
-    name: str
-    shape: str  # "box" | "cylinder"
-    size: tuple[float, ...]
-    position: tuple[float, float, float]
+# Touching is not colliding: penetrations up to 0.5 mm pass (states measured in the simulation, e.g. fingers
+# resting on each other in a grasp, touch by micrometres; MoveIt's FixStartStateCollision adapter would nudge them).
+DEPTH_TOLERANCE = 5e-4
 
 
 class CollisionScene:
@@ -42,14 +37,7 @@ class CollisionScene:
         for pair in sorted(tuple(sorted(p)) for p in config.disabled):  # SRDF pairs: skipped in the narrow phase
             if len(pair) == 2 and set(pair) <= bodies:
                 spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1])
-        kinds = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}
-        for obstacle in obstacles:
-            if obstacle.shape not in kinds:
-                raise SvhdescError(f"obstacle {obstacle.name}: shape must be box or cylinder, not {obstacle.shape}")
-            size = [*obstacle.size, 0.0, 0.0][:3]
-            spec.worldbody.add_geom(
-                name=obstacle.name, type=kinds[obstacle.shape], size=size, pos=list(obstacle.position)
-            )
+        add_objects(spec, [replace(o, mass=None) for o in obstacles])  # movable objects are obstacles here
         self.model = spec.compile()
         self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
         self.data = mujoco.MjData(self.model)
@@ -97,7 +85,7 @@ class CollisionScene:
             return []
         found = []
         for contact in data.contact[: data.ncon]:
-            if contact.dist >= -1e-6:
+            if contact.dist >= -DEPTH_TOLERANCE:
                 continue
             a = self._body[model.geom_bodyid[contact.geom[0]]]
             b = self._body[model.geom_bodyid[contact.geom[1]]]
@@ -108,39 +96,3 @@ class CollisionScene:
 
     def valid(self, index: np.ndarray, values: Sequence[float]) -> bool:
         return not self.colliding_pairs(index, values)
-
-
-def load_obstacles(path: Path) -> list[Obstacle]:
-    """obstacles: [{name, shape: box|cylinder, size: [...], position: [x, y, z]}, ...]; errors name the entry."""
-    import math
-
-    import yaml
-
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SvhdescError(f"{path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise SvhdescError(f"{path}: not YAML: {exc}") from None
-    entries = document.get("obstacles") if isinstance(document, dict) else None
-    if not isinstance(entries, list):
-        raise SvhdescError(f"{path}: expected an 'obstacles:' list")
-    found = []
-    for i, entry in enumerate(entries):
-        where = f"{path}: obstacles[{i}]"
-        try:
-            shape, size, position = (
-                entry["shape"],
-                [float(v) for v in entry["size"]],
-                [float(v) for v in entry["position"]],
-            )
-            name = str(entry.get("name", f"obstacle_{i}"))
-        except (TypeError, KeyError, ValueError) as exc:
-            raise SvhdescError(f"{where}: needs shape, size and position ({exc})") from None
-        want = {"box": 3, "cylinder": 2}.get(shape)
-        if want is None or len(size) != want or len(position) != 3:
-            raise SvhdescError(f"{where}: a box has 3 half sizes, a cylinder 2 (radius, half height); position x y z")
-        if not all(math.isfinite(v) for v in size + position) or min(size) <= 0:
-            raise SvhdescError(f"{where}: sizes must be positive and every number finite")
-        found.append(Obstacle(name, shape, tuple(size), tuple(position)))
-    return found

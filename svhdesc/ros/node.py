@@ -321,6 +321,7 @@ def run_node(
     rate: float,
     connector: Path | None,
     ros_args: list[str],
+    objects: Sequence[Any] = (),
 ) -> None:
     """``svhdesc sim VARIANT --ros``: serve the simulation to the ROS master in ROS_MASTER_URI."""
     if not rate > 0:
@@ -328,7 +329,9 @@ def run_node(
     # rospy leaves sockets to the garbage collector at shutdown: not the user's concern.
     warnings.filterwarnings("ignore", category=ResourceWarning)
     rospy = import_ros()
-    sim = Simulation(variant, keyframe)
+    from ..objects import add_objects
+
+    sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
     for body in track:
         sim.body_pose(body)
     path = connector or default_connector(variant)
