@@ -29,18 +29,18 @@ VARIANT = "ur5_svh_right"
 def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
     from svhdesc.ros.system import import_ros
 
-    rospy = import_ros()
+    import_ros()
+    import rosgraph
+
     home = tmp_path_factory.mktemp("roshome")
-    with master(home):
-        rospy.set_param("/use_sim_time", True)
+    with master(home):  # this process stays off ROS (rospy binds one master per process): the CLI runs it
+        rosgraph.Master("/svhdesc_test_plan").setParam("/use_sim_time", True)
         node = subprocess.Popen(
             [svhdesc_executable(), "sim", VARIANT, "--ros", "--as-fast"],
             stdout=(home / "node.out").open("w"),
             stderr=subprocess.STDOUT,
         )
         try:
-            import rosgraph
-
             wait_for(
                 lambda: any("/joint_states" == t for t, _ in rosgraph.Master("/t").getPublishedTopics("")),
                 60,
