@@ -20,10 +20,11 @@ from ..extras import require
 from ..objects import Obstacle, add_objects
 from .config import MoveItConfig
 
-
-# Touching is not colliding: penetrations up to 0.5 mm pass (states measured in the simulation, e.g. fingers
-# resting on each other in a grasp, touch by micrometres; MoveIt's FixStartStateCollision adapter would nudge them).
-DEPTH_TOLERANCE = 5e-4
+# Pairs that touch in the state a query starts from (by up to 0.5 mm: measured states, e.g. fingers resting on
+# each other in a grasp) may go on touching that much; everything else must stay clear. MoveIt's
+# FixStartStateCollision adapter would nudge such a start state instead.
+TOUCH = 5e-4
+CLEAR = 1e-6
 
 
 class CollisionScene:
@@ -55,6 +56,7 @@ class CollisionScene:
         self._poly = model.eq_data[rows, :5].copy()
         self._powers = np.arange(5)
         self.checks = 0
+        self.touching: frozenset = frozenset()
 
     def joint_index(self, names: Sequence[str]) -> np.ndarray:
         missing = [n for n in names if n not in self._qpos]
@@ -63,9 +65,12 @@ class CollisionScene:
         return np.array([self._qpos[n] for n in names])
 
     def set_state(self, positions: Mapping[str, float]) -> None:
+        """The state a query starts from; its pairs touching by up to TOUCH may keep touching."""
         for name, value in positions.items():
             self.data.qpos[self._qpos[name]] = value
         self._couple()
+        self.touching = frozenset()
+        self.touching = frozenset(frozenset((a, b)) for a, b, depth in self.colliding_pairs() if depth <= TOUCH)
 
     def _couple(self) -> None:
         qpos = self.data.qpos
@@ -85,11 +90,12 @@ class CollisionScene:
             return []
         found = []
         for contact in data.contact[: data.ncon]:
-            if contact.dist >= -DEPTH_TOLERANCE:
+            if contact.dist >= -CLEAR:
                 continue
             a = self._body[model.geom_bodyid[contact.geom[0]]]
             b = self._body[model.geom_bodyid[contact.geom[1]]]
-            if a == b or frozenset((a, b)) in self.config.disabled:
+            pair = frozenset((a, b))
+            if a == b or pair in self.config.disabled or (contact.dist >= -TOUCH and pair in self.touching):
                 continue
             found.append((a, b, -float(contact.dist)))
         return found
