@@ -136,3 +136,27 @@ def test_cli_writes_json_and_refuses_bad_input(tmp_path: Path) -> None:
     scene.write_text("obstacles:\n- {shape: sphere, size: [1], position: [0, 0, 0]}\n")
     bad = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene))
     assert bad.returncode == 2 and "obstacles[0]" in bad.stderr
+
+
+def test_sim_scene_adds_objects_and_refuses_bad_files(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "obstacles:\n- {name: table, shape: box, size: [0.5, 0.3, 0.02], position: [0, 0.6, -0.22]}\n"
+        "- {name: can, shape: cylinder, size: [0.025, 0.06], position: [0.1, 0.6, -0.14], mass: 0.1}\n"
+    )
+    result = run_cli("sim", VARIANT, "--scene", str(scene), "--duration", "0.5", "--track", "can")
+    assert result.returncode == 0, result.stderr
+    line = next(x for x in result.stdout.splitlines() if x.strip().startswith("can:"))
+    z = float(line.split("xyz")[1].split()[2])
+    assert z == pytest.approx(-0.14, abs=0.002)  # the free can stands on the table (it would fall without it)
+    for text, culprit in (
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1], position: [0, 0, 0]}\n", "obstacles[0]"),
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1, 1], position: [0, 0, 0], mass: -1}\n", "mass"),
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1, .nan], position: [0, 0, 0]}\n", "finite"),
+        ("obstacles: 3\n", "obstacles:"),
+        ("{{{", "not YAML"),
+    ):
+        scene.write_text(text)
+        bad = run_cli("sim", VARIANT, "--scene", str(scene), "--duration", "0.1")
+        assert bad.returncode == 2 and bad.stderr.startswith("error:") and culprit in bad.stderr, bad.stderr
+        assert "Traceback" not in bad.stderr
