@@ -65,9 +65,11 @@ REPORTS_VELOCITY = {"hand": False, "arm": True}
 # Only the ones the simulation implements are listed: see README (ROS node, deviations).
 JOINT_STATE_CONTROLLER = "joint_state_controller"
 ARM_STOPPED_CONTROLLER = "pos_joint_traj_controller"
+ARM_VELOCITY_CONTROLLER = "joint_group_vel_controller"
 CONTROLLER_TYPES = {
     JOINT_STATE_CONTROLLER: "joint_state_controller/JointStateController",
     ARM_CONTROLLER: "position_controllers/ScaledJointTrajectoryController",
     ARM_STOPPED_CONTROLLER: "position_controllers/JointTrajectoryController",
+    ARM_VELOCITY_CONTROLLER: "velocity_controllers/JointGroupVelocityController",
     "hand": "position_controllers/JointTrajectoryController",
 }

@@ -555,6 +555,7 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
         HAND: "running",
         ARM: "running",
         "pos_joint_traj_controller": "stopped",
+        "joint_group_vel_controller": "stopped",
     }
     claimed = {c.name: c.claimed_resources[0].resources for c in listing().controller}
     assert len(claimed[ARM]) == 6 and claimed[ARM] == claimed["pos_joint_traj_controller"]
@@ -580,3 +581,25 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
     finally:
         assert switch([ARM], ["pos_joint_traj_controller"], strict, False, 0.0).ok
     assert states()[ARM] == "running"
+    # The velocity group controller: switched on, its command moves the joints at that speed.
+    from std_msgs.msg import Float64MultiArray
+
+    command = rospy.Publisher("/joint_group_vel_controller/command", Float64MultiArray, queue_size=1)
+    wait_for(lambda: command.get_num_connections(), 20, "the velocity command subscriber")
+    assert switch(["joint_group_vel_controller"], [ARM], strict, False, 0.0).ok
+    try:
+        before = _positions(ros)[arm[0]]
+        command.publish(Float64MultiArray(data=[0.5]))  # wrong size: refused
+        rospy.sleep(0.5)
+        assert abs(_positions(ros)[arm[0]] - before) < 2e-3
+        start = rospy.Time.now().to_sec()
+        command.publish(Float64MultiArray(data=[0.2, 0, 0, 0, 0, 0]))
+        rospy.sleep(1.0)
+        command.publish(Float64MultiArray(data=[0.0] * 6))
+        elapsed = rospy.Time.now().to_sec() - start
+        rospy.sleep(0.5)
+        moved = _positions(ros)[arm[0]] - before
+        assert moved == pytest.approx(0.2 * elapsed, abs=0.05), (moved, elapsed)
+    finally:
+        assert switch([ARM], ["joint_group_vel_controller"], strict, False, 0.0).ok
+    assert states()["joint_group_vel_controller"] == "stopped"

@@ -4,7 +4,8 @@ ros_control's controller_manager serves them, over the controllers the real driv
 Switching follows ControllerManager::switchController (noetic): strictness 0 means BEST_EFFORT; under
 STRICT an unknown name, starting a running controller, stopping a stopped one or a resource claimed
 twice fails the whole request (ok = False, nothing changes); under BEST_EFFORT those entries are
-dropped and the rest switch. Stopping a trajectory controller preempts its goal and holds the joints.
+dropped and the rest switch. Stopping a trajectory controller preempts its goal and holds the joints;
+joint_state_controller cannot be switched (it is always on here).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from .controller import TrajectoryController, on_sim_thread
+from .controller import on_sim_thread
 
 BASE_CLASS = "controller_interface::ControllerBase"
 BEST_EFFORT, STRICT = 1, 2
@@ -26,7 +27,7 @@ class Loaded:
     interface: str  # the hardware interface it claims from
     resources: list[str]
     running: bool
-    trajectory: TrajectoryController | None = None  # None: always-on (joint_state_controller)
+    controller: Any = None  # with starting()/stopping(); None: always on (joint_state_controller)
 
 
 class ControllerManager:
@@ -85,7 +86,7 @@ class ControllerManager:
         stopping, starting = [], []
         for name in stop:
             loaded = self.controllers.get(name)
-            if loaded is None or not loaded.running or loaded.trajectory is None:
+            if loaded is None or not loaded.running or loaded.controller is None:
                 why = f"cannot stop {name!r}: it is {'not loaded' if loaded is None else 'not running'}"
                 if strict:
                     return refuse(why)
@@ -94,7 +95,7 @@ class ControllerManager:
             stopping.append(loaded)
         for name in start:
             loaded = self.controllers.get(name)
-            if loaded is None or (loaded.running and loaded not in stopping) or loaded.trajectory is None:
+            if loaded is None or (loaded.running and loaded not in stopping) or loaded.controller is None:
                 why = f"cannot start {name!r}: it is {'not loaded' if loaded is None else 'already running'}"
                 if strict:
                     return refuse(why)
@@ -109,12 +110,10 @@ class ControllerManager:
                 if resource in claimed:
                     return refuse(f"{controller.name} and {claimed[resource]} would both claim {resource}")
                 claimed[resource] = controller.name
-        for controller in stopping:
-            assert controller.trajectory is not None
-            controller.trajectory.stopping()
-            controller.running = False
-        for controller in starting:
-            assert controller.trajectory is not None
-            controller.trajectory.starting()
-            controller.running = True
+        for loaded in stopping:
+            loaded.controller.stopping()
+            loaded.running = False
+        for loaded in starting:
+            loaded.controller.starting()
+            loaded.running = True
         return True

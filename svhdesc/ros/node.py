@@ -9,6 +9,7 @@ Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
                                                       and QueryTrajectoryState
   /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command, state, query_state (6 arm joints)
   /pos_joint_traj_controller/...                      the same, loaded stopped (as ur5_bringup.launch)
+  /joint_group_vel_controller/command                 std_msgs/Float64MultiArray, loaded stopped
   /controller_manager/list_controllers, list_controller_types, switch_controller   controller_manager_msgs
   connector topics (config/connector.yaml)            std_msgs/Float64 control / pose / initpose
   /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
@@ -35,6 +36,7 @@ from ..interfaces import (
     ACTION_MONITOR_RATE,
     ARM_CONTROLLER,
     ARM_STOPPED_CONTROLLER,
+    ARM_VELOCITY_CONTROLLER,
     CONSTRAINTS,
     CONTROLLER_TYPES,
     JOINT_STATE_CONTROLLER,
@@ -51,6 +53,7 @@ from .system import import_ros
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
+VELOCITY_INTERFACE = "hardware_interface::VelocityJointInterface"
 
 
 def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
@@ -155,6 +158,7 @@ class SimNode:
 
         from .controller import TrajectoryController
         from .manager import ControllerManager, Loaded
+        from .velocity import VelocityGroupController
 
         self._rospy = rospy
         self.sim = sim
@@ -201,6 +205,14 @@ class SimNode:
             )
             self.controllers.append(controller)
             loaded.append(Loaded(name, kind_name, POSITION_INTERFACE, list(joints), running, controller))
+        self._velocity_controllers = []
+        if info.arm_joints:
+            velocity = VelocityGroupController(ARM_VELOCITY_CONTROLLER, info.arm_joints, sim, self.queue)
+            self._velocity_controllers.append(velocity)
+            kind_name = CONTROLLER_TYPES[ARM_VELOCITY_CONTROLLER]
+            loaded.append(
+                Loaded(ARM_VELOCITY_CONTROLLER, kind_name, VELOCITY_INTERFACE, list(info.arm_joints), False, velocity)
+            )
         self.manager = ControllerManager(loaded, self.queue)
         self._pose_topics = []
         for joint in connector:
@@ -289,6 +301,8 @@ class SimNode:
             self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
             for controller in self.controllers:
                 controller.update()
+            for velocity in self._velocity_controllers:
+                velocity.update()
             if sim.time >= next_state - 0.5 * sim.timestep:
                 self.publish_state()
                 next_state += self._period
