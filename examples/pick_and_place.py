@@ -181,8 +181,7 @@ def render_moments(moments: list[dict[str, Any]], out: Path) -> list[Path]:
     spec = mujoco.MjSpec.from_file(str(model_dir / "scene.xml"))
     spec.meshdir = str(model_dir / "assets")
     add_objects(spec, load_obstacles(SCENE))
-    spec.stat.center = [0.0, 0.35, -0.05]
-    spec.stat.extent = 0.55
+    spec.visual.global_.azimuth, spec.visual.global_.elevation = 235.0, -25.0  # from the front left: palm and can
     model = spec.compile()
     for moment in moments:
         qpos = model.qpos0.copy()
