@@ -606,6 +606,7 @@ def sim_command(
 @click.option("--timeout", type=float, default=5.0, show_default=True, help="Planning time limit (s).")
 @click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None, help="YAML list of obstacles.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the plan as JSON.")
+@click.option("--seed", type=int, default=1, show_default=True, help="OMPL's random seed (same seed, same path).")
 @click.option("--execute", is_flag=True, help="Send it to a running 'svhdesc sim --ros' and report tracking error.")
 @_friendly
 def plan_command(
@@ -618,6 +619,7 @@ def plan_command(
     timeout: float,
     scene_file: Path | None,
     json_path: Path | None,
+    seed: int,
     execute: bool,
 ) -> None:
     """Plan GROUP of VARIANT from a state to a state or a tool pose with OMPL, on its generated MoveIt config."""
@@ -625,7 +627,7 @@ def plan_command(
 
     require_extra("plan", "'svhdesc plan'")
     from .objects import load_obstacles
-    from .plan import PLANNERS, Planner
+    from .plan import PLANNERS, Planner, seed_ompl
 
     if (goal is None) == (pose is None):
         raise SvhdescError("give exactly one of --to STATE and --pose X Y Z ROLL PITCH YAW")
@@ -636,6 +638,7 @@ def plan_command(
     if variant not in svhdesc_variants():
         raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc_variants())}")
     obstacles = load_obstacles(scene_file) if scene_file is not None else []
+    seed_ompl(seed)
     engine = Planner(variant, obstacles)
     result = engine.plan(group, start, goal=goal, pose=pose, planner=planner, timeout=timeout)
     document = result.as_json()

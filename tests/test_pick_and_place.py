@@ -22,7 +22,6 @@ pytestmark = [
     pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed"),
     pytest.mark.slow,
 ]
-pytest.importorskip("ompl")
 
 EXAMPLE = REPO / "examples" / "pick_and_place.py"
 

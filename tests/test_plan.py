@@ -9,12 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("ompl")
-pytest.importorskip("ruckig")
+from svhdesc.plan import Obstacle, Planner
 
-from svhdesc.plan import Obstacle, Planner  # noqa: E402
-
-from .support import run_cli  # noqa: E402
+from .support import run_cli
 
 VARIANT = "ur5_svh_right"
 # A box where the straight joint-space motion from home to test sweeps the hand.
@@ -160,3 +157,17 @@ def test_sim_scene_adds_objects_and_refuses_bad_files(tmp_path: Path) -> None:
         bad = run_cli("sim", VARIANT, "--scene", str(scene), "--duration", "0.1")
         assert bad.returncode == 2 and bad.stderr.startswith("error:") and culprit in bad.stderr, bad.stderr
         assert "Traceback" not in bad.stderr
+
+
+def test_cli_same_seed_same_path(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    x, y, z = WALL.position
+    scene.write_text(f"obstacles:\n- {{name: wall, shape: box, size: [0.06, 0.06, 0.06], position: [{x}, {y}, {z}]}}\n")
+    paths = []
+    for k in range(2):
+        out = tmp_path / f"plan{k}.json"
+        args = ("--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene), "--json", str(out))
+        result = run_cli("plan", VARIANT, *args, "--seed", "5")
+        assert result.returncode == 0, result.stderr
+        paths.append(json.loads(out.read_text())["waypoints"])
+    assert paths[0] == paths[1] and len(paths[0]) > 2  # a detour, found the same way twice

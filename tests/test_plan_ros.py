@@ -20,7 +20,6 @@ pytestmark = [
     pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed"),
     pytest.mark.slow,
 ]
-pytest.importorskip("ompl")
 
 VARIANT = "ur5_svh_right"
 
