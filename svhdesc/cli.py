@@ -622,6 +622,13 @@ def compare_command(
     default=None,
     help="With --ros: the connector YAML (default: the variant's config/connector.yaml).",
 )
+@click.option(
+    "--scene",
+    "scene_file",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="YAML obstacles/objects to add (those with a mass move freely); the format of 'svhdesc plan --scene'.",
+)
 @click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
 @_friendly
 def sim_command(
@@ -634,6 +641,7 @@ def sim_command(
     track: tuple[str, ...],
     rate: float,
     connector: Path | None,
+    scene_file: Path | None,
     ros_args: tuple[str, ...],
 ) -> None:
     """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
@@ -644,16 +652,96 @@ def sim_command(
     stray = [a for a in ros_args if ":=" not in a]
     if stray:
         raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
+    from .objects import load_obstacles
+
+    objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros:
         from .ros.node import run_node
 
-        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args))
+        run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return
     if ros_args:
         raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
     from .sim.cli_run import run_plain
 
-    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo)
+    run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo, objects)
+
+
+@main.command("plan")
+@click.argument("variant")
+@click.option("--group", required=True, help="SRDF planning group (manipulator, hand, arm_hand).")
+@click.option("--from", "start", required=True, help="Start: a group state (home, test) or comma-separated values.")
+@click.option("--to", "goal", default=None, help="Goal: a group state or comma-separated values.")
+@click.option("--pose", nargs=6, type=float, default=None, help="Goal pose of the tool frame: X Y Z ROLL PITCH YAW.")
+@click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
+@click.option("--timeout", type=float, default=5.0, show_default=True, help="Planning time limit (s).")
+@click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None, help="YAML list of obstacles.")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the plan as JSON.")
+@click.option("--seed", type=int, default=1, show_default=True, help="OMPL's random seed (same seed, same path).")
+@click.option("--execute", is_flag=True, help="Send it to a running 'svhdesc sim --ros' and report tracking error.")
+@_friendly
+def plan_command(
+    variant: str,
+    group: str,
+    start: str,
+    goal: str | None,
+    pose: tuple[float, ...] | None,
+    planner: str,
+    timeout: float,
+    scene_file: Path | None,
+    json_path: Path | None,
+    seed: int,
+    execute: bool,
+) -> None:
+    """Plan GROUP of VARIANT from a state to a state or a tool pose with OMPL, on its generated MoveIt config."""
+    import json
+
+    require_extra("plan", "'svhdesc plan'")
+    from .objects import load_obstacles
+    from .plan import PLANNERS, Planner, seed_ompl
+
+    if (goal is None) == (pose is None):
+        raise SvhdescError("give exactly one of --to STATE and --pose X Y Z ROLL PITCH YAW")
+    if planner not in PLANNERS:
+        raise SvhdescError(f"--planner: unknown '{planner}'; choose from {', '.join(PLANNERS)}")
+    if not timeout > 0:
+        raise SvhdescError(f"--timeout must be positive, got {timeout}")
+    if variant not in svhdesc_variants():
+        raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc_variants())}")
+    obstacles = load_obstacles(scene_file) if scene_file is not None else []
+    seed_ompl(seed)
+    engine = Planner(variant, obstacles)
+    result = engine.plan(group, start, goal=goal, pose=pose, planner=planner, timeout=timeout)
+    document = result.as_json()
+    if result.success and execute:
+        from .plan.execute import execute as run
+
+        document["execution"] = run(result, engine.config).as_json()
+    if json_path is not None:
+        temporary = json_path.with_name(json_path.name + ".tmp")
+        temporary.write_text(json.dumps(document, indent=1) + "\n")
+        temporary.replace(json_path)
+    if not result.success:
+        click.echo(f"no plan: {result.message}", err=True)
+        sys.exit(1)
+    click.echo(
+        f"{group}: {len(result.waypoints)} waypoints, {result.path_length:.3f} rad, {result.duration:.2f} s, "
+        f"planned in {result.planning_time:.3f} s ({planner})"
+    )
+    if "execution" in document:
+        run_info = document["execution"]
+        click.echo(
+            f"executed: {'succeeded' if run_info['success'] else 'failed'}, tracking error "
+            f"{run_info['max_tracking_error']:.4f} rad max, {run_info['final_error']:.4f} rad at the end"
+        )
+        if not run_info["success"]:
+            sys.exit(1)
+
+
+def svhdesc_variants() -> list[str]:
+    import svhdesc
+
+    return svhdesc.variants()
 
 
 if __name__ == "__main__":

@@ -29,6 +29,8 @@ EXTRA_OF: dict[str, tuple[str, str]] = {
     "warp": ("warp-lang", "batch"),
     "mujoco_warp": ("mujoco-warp", "batch"),
     "jax": ("jax", "batch-mjx"),
+    "ompl": ("ompl", "plan"),
+    "ruckig": ("ruckig", "plan"),
 }
 
 
@@ -44,6 +46,7 @@ COMMAND_EXTRA: dict[str, str] = {
     "render": "sim",
     "sim": "sim",
     "compare": "engines",
+    "plan": "plan",
 }
 
 

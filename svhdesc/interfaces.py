@@ -38,10 +38,38 @@ def connector_topics(joint: str) -> dict[str, str]:
     }
 
 
-# The controllers' default `constraints` (JointTrajectoryController parameters): ur_robot_driver's
-# values for the arm; tighter goals for the hand, whose joints are short and light. The node uses
-# them unless /<controller>/constraints/... are set; ros_controllers.yaml carries the same values.
+# JointTrajectoryController's own defaults where a config declares no `constraints`
+# (ros_controllers tolerances.h, getSegmentTolerances).
+JTC_DEFAULTS = {"goal": 0.0, "trajectory": 0.0, "goal_time": 0.0, "stopped_velocity_tolerance": 0.01}
+
+# Each controller's default `constraints` as its real driver configures them. SCHUNK's
+# schunk_svh_driver (cfg/right_hand_controllers.yaml) declares none, so the hand gets the JTC defaults
+# above: no position check, only |velocity| <= 0.01 rad/s when the trajectory ends. ur_robot_driver
+# (config/ur5_controllers.yaml) sets the arm's. The node uses them unless /<controller>/constraints/...
+# are set; ros_controllers.yaml carries the same (no `constraints:` for the hand, as SCHUNK's file).
 CONSTRAINTS = {
-    "hand": {"goal": 0.01, "trajectory": 0.0, "goal_time": 1.0, "stopped_velocity_tolerance": 0.05},
+    "hand": dict(JTC_DEFAULTS),
     "arm": {"goal": 0.1, "trajectory": 0.2, "goal_time": 0.6, "stopped_velocity_tolerance": 0.05},
+}
+DECLARES_CONSTRAINTS = {"hand": False, "arm": True}
+# state_publish_rate / action_monitor_rate: SCHUNK's config leaves the JTC defaults (50 / 20 Hz);
+# ur5_controllers.yaml sets 125 (its loop_hz) / 10.
+STATE_PUBLISH_RATE = {"hand": 50.0, "arm": 125.0}
+ACTION_MONITOR_RATE = {"hand": 20.0, "arm": 10.0}
+# SCHUNK's SVHRosControlHWInterface registers joint velocities but never writes them (always 0), so
+# its controller's stopped-velocity check always passes; ur_robot_driver reports measured velocities.
+REPORTS_VELOCITY = {"hand": False, "arm": True}
+
+# The controllers each real driver loads (ur5_bringup.launch: `controllers` are started,
+# `stopped_controllers` loaded and stopped), as /controller_manager/list_controllers reports them.
+# Only the ones the simulation implements are listed: see README (ROS node, deviations).
+JOINT_STATE_CONTROLLER = "joint_state_controller"
+ARM_STOPPED_CONTROLLER = "pos_joint_traj_controller"
+ARM_VELOCITY_CONTROLLER = "joint_group_vel_controller"
+CONTROLLER_TYPES = {
+    JOINT_STATE_CONTROLLER: "joint_state_controller/JointStateController",
+    ARM_CONTROLLER: "position_controllers/ScaledJointTrajectoryController",
+    ARM_STOPPED_CONTROLLER: "position_controllers/JointTrajectoryController",
+    ARM_VELOCITY_CONTROLLER: "velocity_controllers/JointGroupVelocityController",
+    "hand": "position_controllers/JointTrajectoryController",
 }

@@ -29,6 +29,8 @@ def run_without(module: str, *args: str, cwd: Path = REPO) -> subprocess.Complet
         ("mujoco", ("validate", "svh_right", "--checks", "simulate"), "validate"),
         ("matplotlib", ("validate", "svh_right", "--checks", "contact_stability", "--plots", "{tmp}/p"), "validate"),
         ("yourdfpy", ("validate", "svh_right", "--checks", "kinematics"), "validate"),
+        ("ompl", ("plan", "ur5_svh_right", "--group", "manipulator", "--from", "home", "--to", "test"), "plan"),
+        ("ruckig", ("plan", "ur5_svh_right", "--group", "manipulator", "--from", "home", "--to", "test"), "plan"),
     ],
 )
 def test_missing_extra_is_one_line_naming_it(tmp_path: Path, module: str, args: tuple[str, ...], extra: str) -> None:

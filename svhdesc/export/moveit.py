@@ -8,7 +8,15 @@ from collections.abc import Mapping
 
 from lxml import etree
 
-from ..interfaces import ACTION, ARM_CONTROLLER, CONSTRAINTS, hand_controller
+from ..interfaces import (
+    ACTION,
+    ACTION_MONITOR_RATE,
+    ARM_CONTROLLER,
+    CONSTRAINTS,
+    DECLARES_CONSTRAINTS,
+    STATE_PUBLISH_RATE,
+    hand_controller,
+)
 from ..ir import Robot
 from .ros import GENERATED, dump_yaml
 from .xmlfmt import num, serialise, sub
@@ -146,18 +154,19 @@ def export_ros_controllers(robot: Robot, d_gains: Mapping[str, float]) -> bytes:
         kinds = {interface[j] for j in joints}
         effort = kinds == {"hardware_interface/EffortJointInterface"}
         constraints = CONSTRAINTS[kind]
-        controller = {
+        controller: dict = {
             "type": f"{'effort' if effort else 'position'}_controllers/JointTrajectoryController",
             "joints": joints,
-            "constraints": {
+        }
+        if DECLARES_CONSTRAINTS[kind]:  # the hand's real config declares none: JTC defaults
+            controller["constraints"] = {
                 "goal_time": constraints["goal_time"],
                 "stopped_velocity_tolerance": constraints["stopped_velocity_tolerance"],
                 **{j: {"goal": constraints["goal"], "trajectory": constraints["trajectory"]} for j in joints},
-            },
-            "state_publish_rate": 25,
-            "action_monitor_rate": 20,
-            "allow_partial_joints_goal": kind == "hand",
-        }
+            }
+        controller["state_publish_rate"] = STATE_PUBLISH_RATE[kind]
+        controller["action_monitor_rate"] = ACTION_MONITOR_RATE[kind]
+        controller["allow_partial_joints_goal"] = kind == "hand"
         if effort:
             controller["gains"] = {j: {"p": float(kp[j]), "d": float(d_gains[j]), "i": 0.0} for j in joints}
         document[name] = controller

@@ -1,13 +1,17 @@
 """Goal checks of ros_control's JointTrajectoryController, on plain values (no ROS needed).
 
-Error codes are control_msgs/FollowJointTrajectoryResult's.
+Error codes are control_msgs/FollowJointTrajectoryResult's, case by case as noetic's
+joint_trajectory_controller_impl.h (goalCB) and init_joint_trajectory.h give them: joints that do not
+map onto the controller's -> INVALID_JOINTS; anything that makes initJointTrajectory return an empty
+trajectory (times not strictly increasing, sizes that differ, every point at or before the next
+update) -> INVALID_GOAL. The controller never returns OLD_HEADER_TIMESTAMP.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..sim.trajectory import Point, validate_points
 
@@ -47,44 +51,71 @@ def check_goal(
     problem = validate_points(points, len(names))
     if problem:
         return Rejection(INVALID_GOAL, problem)
-    for i, point in enumerate(points):
+    if not math.isfinite(stamp):
+        return Rejection(INVALID_GOAL, f"header stamp {stamp} is not finite")
+    start = now if stamp == 0.0 else stamp
+    if start + points[-1].time <= now:
+        # init_joint_trajectory.h: the trajectory comes back empty and goalCB rejects with INVALID_GOAL.
+        return Rejection(
+            INVALID_GOAL,
+            f"Dropping all {len(points)} trajectory point(s), as they occur before the current time. "
+            f"Last point is {now - (start + points[-1].time):.3f}s in the past.",
+        )
+    for i, point in enumerate(points):  # not checked by the controller: see README (deviations)
         for name, value in zip(names, point.positions):
             low, high = limits[name]
             if not low - 1e-9 <= value <= high + 1e-9:
                 return Rejection(INVALID_GOAL, f"point {i}: {name} = {value} is outside its limits [{low}, {high}]")
-    if not math.isfinite(stamp):
-        return Rejection(INVALID_GOAL, f"header stamp {stamp} is not finite")
-    start = now if stamp == 0.0 else stamp
-    if start + points[-1].time < now:
-        return Rejection(
-            OLD_HEADER_TIMESTAMP,
-            f"the trajectory ends at t = {start + points[-1].time:.3f} s, before now ({now:.3f} s)",
-        )
     return None
 
 
 @dataclass
 class Tolerances:
-    """Per-joint tolerances (0: unchecked), as JointTrajectoryController's ``constraints``."""
+    """Per-joint tolerances (0: unchecked), as JointTrajectoryController's ``constraints``
+    (tolerances.h): path and goal position, goal velocity (``stopped_velocity_tolerance``), path
+    velocity (only from goals), and the time allowed after the end to get within the goal."""
 
     path: dict[str, float]
     goal: dict[str, float]
     stopped_velocity: float
     goal_time: float
+    goal_velocity: dict[str, float] = field(default_factory=dict)
+    path_velocity: dict[str, float] = field(default_factory=dict)
 
-    def merged(self, path: Mapping[str, float], goal: Mapping[str, float], goal_time: float) -> Tolerances:
-        """Goal-given tolerances over the defaults: 0 keeps the default, -1 lifts the limit."""
+    def __post_init__(self) -> None:
+        for joint in self.goal:
+            self.goal_velocity.setdefault(joint, self.stopped_velocity)
+        for joint in self.path:
+            self.path_velocity.setdefault(joint, 0.0)
 
-        def merge(default: dict[str, float], given: Mapping[str, float]) -> dict[str, float]:
+    def merged(
+        self,
+        path: Mapping[str, float],
+        goal: Mapping[str, float],
+        goal_time: float,
+        path_velocity: Mapping[str, float] | None = None,
+        goal_velocity: Mapping[str, float] | None = None,
+    ) -> Tolerances:
+        """Goal-given tolerances over the defaults: 0 keeps the default, negative lifts the limit."""
+
+        def merge(default: dict[str, float], given: Mapping[str, float] | None) -> dict[str, float]:
             out = dict(default)
-            for name, value in given.items():
+            for name, value in (given or {}).items():
                 if name in out and value != 0.0:
                     out[name] = 0.0 if value < 0 else value
             return out
 
+        if goal_time < 0:
+            time = 0.0
+        elif goal_time > 0:
+            time = goal_time
+        else:
+            time = self.goal_time
         return Tolerances(
             merge(self.path, path),
             merge(self.goal, goal),
             self.stopped_velocity,
-            goal_time if goal_time > 0 else self.goal_time,
+            time,
+            merge(self.goal_velocity, goal_velocity),
+            merge(self.path_velocity, path_velocity),
         )

@@ -5,7 +5,12 @@ Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
   /joint_states                                       sensor_msgs/JointState, every joint
   /<prefix>_controller/follow_joint_trajectory        control_msgs/FollowJointTrajectory (9 channels)
   /<prefix>_controller/command                        trajectory_msgs/JointTrajectory
-  /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command   (6 arm joints)
+  /<prefix>_controller/state, /<prefix>_controller/query_state   control_msgs JointTrajectoryControllerState
+                                                      and QueryTrajectoryState
+  /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command, state, query_state (6 arm joints)
+  /pos_joint_traj_controller/...                      the same, loaded stopped (as ur5_bringup.launch)
+  /joint_group_vel_controller/command                 std_msgs/Float64MultiArray, loaded stopped
+  /controller_manager/list_controllers, list_controller_types, switch_controller   controller_manager_msgs
   connector topics (config/connector.yaml)            std_msgs/Float64 control / pose / initpose
   /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
   <F3D topicName of the URDF>                         geometry_msgs/WrenchStamped, index fingertip
@@ -27,12 +32,28 @@ from typing import Any
 from lxml import etree
 
 from ..errors import SvhdescError
-from ..interfaces import ARM_CONTROLLER, CONSTRAINTS, NODE_NAME, hand_controller
+from ..interfaces import (
+    ACTION_MONITOR_RATE,
+    ARM_CONTROLLER,
+    ARM_STOPPED_CONTROLLER,
+    ARM_VELOCITY_CONTROLLER,
+    CONSTRAINTS,
+    CONTROLLER_TYPES,
+    JOINT_STATE_CONTROLLER,
+    NODE_NAME,
+    REPORTS_VELOCITY,
+    STATE_PUBLISH_RATE,
+    hand_controller,
+)
 from ..sim import Simulation
 from .connector import ConnectorJoint, load_connector
 from .goals import Tolerances
 from .messages import control_msgs
 from .system import import_ros
+
+POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
+STATE_INTERFACE = "hardware_interface::JointStateInterface"
+VELOCITY_INTERFACE = "hardware_interface::VelocityJointInterface"
 
 
 def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
@@ -136,6 +157,8 @@ class SimNode:
         import svhdesc
 
         from .controller import TrajectoryController
+        from .manager import ControllerManager, Loaded
+        from .velocity import VelocityGroupController
 
         self._rospy = rospy
         self.sim = sim
@@ -158,22 +181,39 @@ class SimNode:
         info = sim.info
         groups = []
         if info.hand_channels:
-            groups.append((hand_controller(info.hand_prefix or "hand"), info.hand_channels, True, "hand"))
+            name = hand_controller(info.hand_prefix or "hand")
+            groups.append((name, CONTROLLER_TYPES["hand"], info.hand_channels, True, "hand", True))
         if info.arm_joints:
-            groups.append((ARM_CONTROLLER, info.arm_joints, False, "arm"))
-        for name, joints, partial, kind in groups:
-            self.controllers.append(
-                TrajectoryController(
-                    name,
-                    joints,
-                    sim,
-                    msgs,
-                    partial,
-                    _tolerances(rospy, name, joints, kind),
-                    self.queue,
-                    self.outbox.send,
-                )
+            groups.append((ARM_CONTROLLER, CONTROLLER_TYPES[ARM_CONTROLLER], info.arm_joints, False, "arm", True))
+            stopped = ARM_STOPPED_CONTROLLER
+            groups.append((stopped, CONTROLLER_TYPES[stopped], info.arm_joints, False, "arm", False))
+        loaded = [Loaded(JOINT_STATE_CONTROLLER, CONTROLLER_TYPES[JOINT_STATE_CONTROLLER], STATE_INTERFACE, [], True)]
+        for name, kind_name, joints, partial, kind, running in groups:
+            controller = TrajectoryController(
+                name,
+                joints,
+                sim,
+                msgs,
+                partial,
+                _tolerances(rospy, name, joints, kind),
+                self.queue,
+                self.outbox.send,
+                feedback_period=1.0 / ACTION_MONITOR_RATE[kind],
+                state_period=1.0 / float(rospy.get_param(f"{name}/state_publish_rate", STATE_PUBLISH_RATE[kind])),
+                running=running,
+                reports_velocity=REPORTS_VELOCITY[kind],
             )
+            self.controllers.append(controller)
+            loaded.append(Loaded(name, kind_name, POSITION_INTERFACE, list(joints), running, controller))
+        self._velocity_controllers = []
+        if info.arm_joints:
+            velocity = VelocityGroupController(ARM_VELOCITY_CONTROLLER, info.arm_joints, sim, self.queue)
+            self._velocity_controllers.append(velocity)
+            kind_name = CONTROLLER_TYPES[ARM_VELOCITY_CONTROLLER]
+            loaded.append(
+                Loaded(ARM_VELOCITY_CONTROLLER, kind_name, VELOCITY_INTERFACE, list(info.arm_joints), False, velocity)
+            )
+        self.manager = ControllerManager(loaded, self.queue)
         self._pose_topics = []
         for joint in connector:
             sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
@@ -261,6 +301,8 @@ class SimNode:
             self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
             for controller in self.controllers:
                 controller.update()
+            for velocity in self._velocity_controllers:
+                velocity.update()
             if sim.time >= next_state - 0.5 * sim.timestep:
                 self.publish_state()
                 next_state += self._period
@@ -293,6 +335,7 @@ def run_node(
     rate: float,
     connector: Path | None,
     ros_args: list[str],
+    objects: Sequence[Any] = (),
 ) -> None:
     """``svhdesc sim VARIANT --ros``: serve the simulation to the ROS master in ROS_MASTER_URI."""
     if not rate > 0:
@@ -300,7 +343,9 @@ def run_node(
     # rospy leaves sockets to the garbage collector at shutdown: not the user's concern.
     warnings.filterwarnings("ignore", category=ResourceWarning)
     rospy = import_ros()
-    sim = Simulation(variant, keyframe)
+    from ..objects import add_objects
+
+    sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
     for body in track:
         sim.body_pose(body)
     path = connector or default_connector(variant)

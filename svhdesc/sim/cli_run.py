@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from .runtime import Simulation
 
@@ -16,8 +17,11 @@ def run_plain(
     realtime: bool,
     track: Sequence[str],
     echo: Callable[[str], None],
+    objects: Sequence[Any] = (),
 ) -> None:
-    sim = Simulation(variant, keyframe)
+    from ..objects import add_objects
+
+    sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
     for body in track:
         sim.body_pose(body)  # unknown bodies fail before the run
     window = None

@@ -1,0 +1,104 @@
+"""Collision checking for the planner with MuJoCo's collision detection on the model's collision geoms
+(the same convex hulls the simulation uses), plus obstacles (boxes, cylinders) in the world.
+
+MoveIt's rules, not the simulator's: the MJCF's own <exclude> pairs and MuJoCo's parent-child filter are
+dropped, and only the SRDF's disable_collisions pairs are skipped. Coupled joints follow their channels
+through the model's joint equalities (the coupling polynomials).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+import svhdesc
+
+from ..errors import SvhdescError
+from ..extras import require
+from ..objects import Obstacle, add_objects
+from .config import MoveItConfig
+
+# Pairs that touch in the state a query starts from (by up to 0.5 mm: measured states, e.g. fingers resting on
+# each other in a grasp) may go on touching that much; everything else must stay clear. MoveIt's
+# FixStartStateCollision adapter would nudge such a start state instead.
+TOUCH = 5e-4
+CLEAR = 1e-6
+
+
+class CollisionScene:
+    def __init__(self, variant: str, config: MoveItConfig, obstacles: Sequence[Obstacle] = ()) -> None:
+        mujoco = require("mujoco", "planning", "sim")
+        self._mj = mujoco
+        spec = mujoco.MjSpec.from_file(str(svhdesc.get(variant).mjcf_path))
+        for exclude in list(spec.excludes):
+            spec.delete(exclude)
+        bodies = {b.name for b in spec.bodies}
+        for pair in sorted(tuple(sorted(p)) for p in config.disabled):  # SRDF pairs: skipped in the narrow phase
+            if len(pair) == 2 and set(pair) <= bodies:
+                spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1])
+        add_objects(spec, [replace(o, mass=None) for o in obstacles])  # movable objects are obstacles here
+        self.model = spec.compile()
+        self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+        self.data = mujoco.MjData(self.model)
+        self.config = config
+        self.obstacles = tuple(obstacles)
+        model = self.model
+        self._qpos = {model.joint(j).name: int(model.joint(j).qposadr[0]) for j in range(model.njnt)}
+        self._body = [model.body(b).name for b in range(model.nbody)]
+        # Coupled joint = poly(channel) (mjEQ_JOINT: q1 - q1_0 = sum c_k (q2 - q2_0)^k).
+        rows = [e for e in range(model.neq) if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and model.eq_obj2id[e] >= 0]
+        coupled = model.jnt_qposadr[model.eq_obj1id[rows]]
+        channel = model.jnt_qposadr[model.eq_obj2id[rows]]
+        self._coupled, self._channel = coupled, channel
+        self._coupled0, self._channel0 = model.qpos0[coupled].copy(), model.qpos0[channel].copy()
+        self._poly = model.eq_data[rows, :5].copy()
+        self._powers = np.arange(5)
+        self.checks = 0
+        self.touching: frozenset = frozenset()
+
+    def joint_index(self, names: Sequence[str]) -> np.ndarray:
+        missing = [n for n in names if n not in self._qpos]
+        if missing:
+            raise SvhdescError(f"joints {missing} are not in the model")
+        return np.array([self._qpos[n] for n in names])
+
+    def set_state(self, positions: Mapping[str, float]) -> None:
+        """The state a query starts from; its pairs touching by up to TOUCH may keep touching."""
+        for name, value in positions.items():
+            self.data.qpos[self._qpos[name]] = value
+        self._couple()
+        self.touching = frozenset()
+        self.touching = frozenset(frozenset((a, b)) for a, b, depth in self.colliding_pairs() if depth <= TOUCH)
+
+    def _couple(self) -> None:
+        qpos = self.data.qpos
+        x = qpos[self._channel] - self._channel0
+        qpos[self._coupled] = self._coupled0 + (self._poly * x[:, None] ** self._powers).sum(axis=1)
+
+    def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
+        """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""
+        mujoco, model, data = self._mj, self.model, self.data
+        if index is not None and values is not None:
+            data.qpos[index] = values
+            self._couple()
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        self.checks += 1
+        if data.ncon == 0:
+            return []
+        found = []
+        for contact in data.contact[: data.ncon]:
+            if contact.dist >= -CLEAR:
+                continue
+            a = self._body[model.geom_bodyid[contact.geom[0]]]
+            b = self._body[model.geom_bodyid[contact.geom[1]]]
+            pair = frozenset((a, b))
+            if a == b or pair in self.config.disabled or (contact.dist >= -TOUCH and pair in self.touching):
+                continue
+            found.append((a, b, -float(contact.dist)))
+        return found
+
+    def valid(self, index: np.ndarray, values: Sequence[float]) -> bool:
+        return not self.colliding_pairs(index, values)
