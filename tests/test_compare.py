@@ -359,9 +359,9 @@ def test_missing_ode_is_reported_as_not_installed(tmp_path) -> None:
 def test_every_deviation_is_stated_and_thesis_setup_follows_the_thesis(tmp_path) -> None:
     ours = experiment.Conditions()
     stated = {d["what"] for d in ours.describe()["deviations"]}
-    assert {"surface", "timing", "test pose", "link masses", "sampling", "force"} <= stated
+    assert {"surface", "timing", "servos", "test pose", "link masses", "sampling", "force"} <= stated
     thesis = experiment.Conditions(thesis=True, window="trailing")
-    assert {d["what"] for d in thesis.describe()["deviations"]} == {"surface", "timing"}
+    assert {d["what"] for d in thesis.describe()["deviations"]} == {"surface", "timing", "servos"}
     assert (thesis.sample_dt, thesis.link_mass, thesis.force) == (0.02, 0.01, "vertical")
     assert thesis.test_pose["shoulder_lift_joint"] == 0.4014 and thesis.test_pose["wrist_1_joint"] == 2.3387
 
