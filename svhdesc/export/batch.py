@@ -10,13 +10,7 @@ from the same tree) with what batched engines need stated instead of left to def
   in MuJoCo C): both implement it, but they decide differently whether two hulls touch face on. At the first
   touch of middle and index finger (equivalence test, world 8) C gave two coincident contacts with a normal
   5 degrees from Warp's single one; the worlds then parted by 1.6e-3 rad in 1 s. Without it both compute the
-  same single contact (normal within 1e-5) and that world stays within 6e-5 rad;
-- collision hulls capped at MAX_HULL_VERTICES vertices (``maxhullvert``): MJX's convex collision costs
-  grow with vertex count and it thins any coplanar face above 20 vertices;
-- explicit contact filtering: every collision geom says contype/conaffinity, visuals collide with nothing,
-  and the self-collision exclusions of the main model are kept;
-- ``<size nconmax njmax>``: per-world contact and constraint-row capacities, from a sampled worst case
-  (``svhdesc.batch_sizing``) times SIZE_MARGIN. Warp preallocates exactly this much; see ``svhdesc.batch``.
+  same single contact (benchmarks/batch_first_contacts.py) and that world stays within 5e-5 rad;
 """
 
 from __future__ import annotations
