@@ -23,6 +23,7 @@ from .export.batch import Capacities
 ROLLOUT_S = 1.0
 RANDOM_ROLLOUTS = 4
 SEED = 0
+CHUNK = 100  # states per vectorised broadphase evaluation
 
 
 def _targets(model: object) -> list[np.ndarray]:
@@ -55,28 +56,37 @@ def collision_pairs(model: Any) -> np.ndarray:
     return np.array(pairs, dtype=int).reshape(-1, 2)
 
 
-def broadphase_candidates(model: Any, data: Any, pairs: np.ndarray) -> int:
-    """Pairs that pass Warp's default broadphase: bounding spheres overlap, then oriented bounding boxes
-    overlap along the six face normals (mj_collideOBB); a plane and a bounding sphere that reaches it."""
+def broadphase_candidates(model: Any, xpos: np.ndarray, xmat: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Per state, the pairs that pass Warp's default broadphase: bounding spheres overlap, then oriented bounding
+    boxes overlap along the six face normals (mj_collideOBB); a plane and a bounding sphere that reaches it.
+
+    ``xpos`` (T x ngeom x 3) and ``xmat`` (T x ngeom x 9) are T states' geom_xpos and geom_xmat; one count each.
+    """
     g1, g2 = pairs[:, 0], pairs[:, 1]
     r1, r2 = model.geom_rbound[g1], model.geom_rbound[g2]
     margin = model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]
-    pos1, pos2 = data.geom_xpos[g1], data.geom_xpos[g2]
-    mat1, mat2 = data.geom_xmat[g1].reshape(-1, 3, 3), data.geom_xmat[g2].reshape(-1, 3, 3)
-    offset = pos2 - pos1
+    offset = xpos[:, g2] - xpos[:, g1]
     reach = r1 + r2 + margin
-    spheres = (offset * offset).sum(axis=1) <= reach * reach
-    above1 = (offset * mat1[:, :, 2]).sum(axis=1) <= r2 + margin  # geom 1 a plane: its normal is local z
-    above2 = (-offset * mat2[:, :, 2]).sum(axis=1) <= r1 + margin
-    hits = int(np.count_nonzero(np.where(r1 == 0, above1, False) | np.where(r2 == 0, above2, False)))
-    near = np.flatnonzero(spheres & (r1 > 0) & (r2 > 0))
-    return hits + _boxes_overlap(model, data, g1[near], g2[near], margin[near])
+    # A plane (bounding radius 0) against a geom whose bounding sphere reaches it; the plane's normal is local z.
+    rows = np.flatnonzero((r1 == 0) | (r2 == 0))
+    off, normal1, normal2 = offset[:, rows], xmat[:, g1[rows]][..., 2::3], xmat[:, g2[rows]][..., 2::3]
+    above1 = (off * normal1).sum(axis=2) <= r2[rows] + margin[rows]
+    above2 = (-off * normal2).sum(axis=2) <= r1[rows] + margin[rows]
+    hits = (np.where(r1[rows] == 0, above1, False) | np.where(r2[rows] == 0, above2, False)).sum(axis=1)
+    spheres = (offset * offset).sum(axis=2) <= reach * reach
+    step, near = np.nonzero(spheres & (r1 > 0) & (r2 > 0))
+    boxes = _boxes_overlap(model, xpos[step], xmat[step], g1[near], g2[near], margin[near])
+    return hits + np.bincount(step[boxes], minlength=len(hits))
 
 
-def _boxes_overlap(model: Any, data: Any, g1: np.ndarray, g2: np.ndarray, margin: np.ndarray) -> int:
-    """Oriented bounding boxes (geom_aabb in each geom frame) overlapping along the six face normals."""
-    pos1, pos2 = data.geom_xpos[g1], data.geom_xpos[g2]
-    mat1, mat2 = data.geom_xmat[g1].reshape(-1, 3, 3), data.geom_xmat[g2].reshape(-1, 3, 3)
+def _boxes_overlap(
+    model: Any, xpos: np.ndarray, xmat: np.ndarray, g1: np.ndarray, g2: np.ndarray, margin: np.ndarray
+) -> np.ndarray:
+    """Per row, whether oriented bounding boxes (geom_aabb in each geom frame) overlap along the six face normals;
+    row n pairs geoms g1[n] and g2[n] in the state xpos[n], xmat[n]."""
+    rows = np.arange(len(g1))
+    pos1, pos2 = xpos[rows, g1], xpos[rows, g2]
+    mat1, mat2 = xmat[rows, g1].reshape(-1, 3, 3), xmat[rows, g2].reshape(-1, 3, 3)
     aabb1, aabb2 = model.geom_aabb[g1].reshape(-1, 2, 3), model.geom_aabb[g2].reshape(-1, 2, 3)
     centre1 = np.einsum("nij,nj->ni", mat1, aabb1[:, 0]) + pos1
     centre2 = np.einsum("nij,nj->ni", mat2, aabb2[:, 0]) + pos2
@@ -84,7 +94,7 @@ def _boxes_overlap(model: Any, data: Any, g1: np.ndarray, g2: np.ndarray, margin
     gap = np.abs(np.einsum("ni,nik->nk", centre2 - centre1, axes))
     radius1 = np.abs(np.einsum("nij,nik->njk", mat1, axes) * aabb1[:, 1, :, None]).sum(axis=1)
     radius2 = np.abs(np.einsum("nij,nik->njk", mat2, axes) * aabb2[:, 1, :, None]).sum(axis=1)
-    return int(np.count_nonzero((radius1 + radius2 + margin[:, None] >= gap).all(axis=1)))
+    return (radius1 + radius2 + margin[:, None] >= gap).all(axis=1)
 
 
 def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
@@ -102,15 +112,20 @@ def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, asset
     steps = int(round(ROLLOUT_S / model.opt.timestep))
     pairs = collision_pairs(model)
     worst_ncon = worst_nefc = worst_candidates = 0
+    xpos, xmat = np.empty((steps, model.ngeom, 3)), np.empty((steps, model.ngeom, 9))
     for target in _targets(model):
         if home >= 0:
             mujoco.mj_resetDataKeyframe(model, data, home)
         else:
             mujoco.mj_resetData(model, data)
         data.ctrl[:] = target
-        for _ in range(steps):
+        for step in range(steps):
             mujoco.mj_step(model, data)
             worst_ncon = max(worst_ncon, int(data.ncon))
             worst_nefc = max(worst_nefc, int(data.nefc))
-            worst_candidates = max(worst_candidates, broadphase_candidates(model, data, pairs))
+            xpos[step], xmat[step] = data.geom_xpos, data.geom_xmat
+        # The broadphase of the whole rollout at once, in chunks that keep the arrays small.
+        for first in range(0, steps, CHUNK):
+            counts = broadphase_candidates(model, xpos[first : first + CHUNK], xmat[first : first + CHUNK], pairs)
+            worst_candidates = max(worst_candidates, int(counts.max(initial=0)))
     return Capacities.from_worst_case(worst_ncon, worst_candidates, worst_nefc)

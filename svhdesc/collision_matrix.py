@@ -47,15 +47,10 @@ def _probe(model: Any, data: Any, mujoco: Any) -> tuple[set[tuple[int, int]], se
     """Body pairs (touching, closer than NEAR) in the pose in ``data.qpos``."""
     mujoco.mj_kinematics(model, data)
     mujoco.mj_collision(model, data)
-    touching, near = set(), set()
-    for i in range(data.ncon):
-        contact = data.contact[i]
-        a, b = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
-        pair = (min(a, b), max(a, b))
-        near.add(pair)
-        if contact.dist < 0.0:
-            touching.add(pair)
-    return touching, near
+    contacts = data.contact
+    bodies = np.sort(model.geom_bodyid[contacts.geom[: data.ncon]], axis=1)
+    touching = bodies[contacts.dist[: data.ncon] < 0.0]
+    return {(int(a), int(b)) for a, b in touching}, {(int(a), int(b)) for a, b in bodies}
 
 
 def collision_matrix(

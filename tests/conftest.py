@@ -1,20 +1,39 @@
-"""Session-wide test settings: the Warp kernel cache, and the `ros` and `slow` markers.
+"""Session-wide test settings and shared fixtures.
 
-`pytest -m "not slow and not ros"` is the quick set for development; the README's command and CI run everything.
+- The Warp kernel cache and the hull cache of this run (shared by pytest-xdist's workers, never the user's).
+- The `ros` and `slow` markers: `pytest -m "not slow"` is the quick set for development; the README's command and
+  CI run everything, spread over one worker per CPU (pytest-xdist, `-n auto` in pyproject.toml).
+- `vendor_build`: the upstream descriptions (config/vendor.yaml) built once per worker; its users share an xdist
+  group so that one worker builds it.
 """
 
+from __future__ import annotations
+
 import os
+import shutil
+import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
 
+REPO = Path(__file__).resolve().parents[1]
 # MuJoCo Warp compiles its kernels once into the repo's ignored .cache/ (inherited by CLI subprocesses too).
-os.environ.setdefault("WARP_CACHE_PATH", str(Path(__file__).resolve().parents[1] / ".cache" / "warp"))
+os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
+# One decomposition cache for the whole run: xdist's workers inherit it from the controller, which loads this first.
+OWN_CACHE = "SVHDESC_CACHE" not in os.environ
+if OWN_CACHE:
+    os.environ["SVHDESC_CACHE"] = tempfile.mkdtemp(prefix="svhdesc-test-hulls-")
 
 # Modules that start a ROS master (in a private network namespace, on 127.0.0.1).
 ROS_MODULES = {"test_consumers", "test_pick_and_place", "test_plan_ros", "test_ros", "test_ros_robustness"}
 # Modules whose tests take tens of seconds each (engines, grasps held for seconds, Warp, vendor decompositions).
 SLOW_MODULES = {"test_batch", "test_grasps", "test_fidelity", "test_compare", "test_plan", "test_wireloop"}
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    if OWN_CACHE and not hasattr(config, "workerinput"):  # the controller (or a run without xdist) made it
+        shutil.rmtree(os.environ["SVHDESC_CACHE"], ignore_errors=True)
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -24,3 +43,17 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.ros)
         if module in SLOW_MODULES or module in ROS_MODULES:
             item.add_marker(pytest.mark.slow)
+
+
+@pytest.fixture(scope="session")
+def vendor_build(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    """config/vendor.yaml's three variants built from ../shared/vendor: (out, the build's result)."""
+    from .support import VENDOR_SVH, VENDOR_UR, run_cli
+
+    if not VENDOR_SVH.is_dir():
+        pytest.skip("../shared/vendor is not beside this checkout")
+    out = tmp_path_factory.mktemp("vendor")
+    packages = ("--package", f"schunk_svh_driver={VENDOR_SVH}", "--package", f"ur_description={VENDOR_UR}")
+    result = run_cli("build", "--config", str(REPO / "config" / "vendor.yaml"), "--out", str(out), *packages)
+    assert result.returncode == 0, result.stderr
+    return out, result

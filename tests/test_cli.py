@@ -104,6 +104,7 @@ def test_unreadable_config(out: Path, tmp_path: Path) -> None:
     fails_cleanly(out, "--config", str(broken), match="broken.yaml:")
 
 
+@pytest.mark.slow
 def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path) -> None:
     out = tmp_path / "gen"
     shutil.copytree(built(), out)
@@ -117,6 +118,7 @@ def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path) 
     assert urdf.read_bytes().endswith(b"\n\n")  # --check changes nothing
 
 
+@pytest.mark.slow
 def test_committed_generated_models_are_current() -> None:
     # --force: really rebuild and compare bytes, not just trust the manifest's hashes.
     result = run_cli("build", "--check", "--force", "--timings")
@@ -140,23 +142,9 @@ def test_list_and_info() -> None:
     assert "1.045" in row
 
 
-def test_vendor_description_builds_with_this_projects_spec(tmp_path: Path) -> None:
-    from .support import VENDOR_SVH, VENDOR_UR
-
-    if not VENDOR_SVH.is_dir():
-        pytest.skip("../shared/vendor is not beside this checkout")
-    result = run_cli(
-        "build",
-        "svh_vendor_right",
-        "--config",
-        str(REPO / "config" / "vendor.yaml"),
-        "--out",
-        str(tmp_path),
-        "--package",
-        f"schunk_svh_driver={VENDOR_SVH}",
-        "--package",
-        f"ur_description={VENDOR_UR}",
-    )
-    assert result.returncode == 0, result.stderr
-    assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr
-    assert (tmp_path / "svh_vendor_right" / "svh_vendor_right.xml").is_file()
+@pytest.mark.slow
+@pytest.mark.xdist_group("vendor")
+def test_vendor_description_builds_with_this_projects_spec(vendor_build: tuple[Path, object]) -> None:
+    out, result = vendor_build
+    assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr  # type: ignore[attr-defined]
+    assert (out / "svh_vendor_right" / "svh_vendor_right.xml").is_file()

@@ -19,7 +19,7 @@ from lxml import etree
 
 from svhdesc.decompose import LINK_CLASS_PARAMS
 
-from .support import REPO, VARIANTS, VENDOR_SVH, VENDOR_UR, built
+from .support import REPO, VARIANTS, built
 
 GENERATED = REPO / "generated"
 
@@ -55,6 +55,7 @@ def _hull_bytes(out: Path) -> list[bytes]:
     return [p.read_bytes() for p in sorted((out / "hand" / "assets").glob("t_hull_*.obj"))]
 
 
+@pytest.mark.slow
 def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
     cache, out = tmp_path / "cache", tmp_path / "out"
     one_tip = {"mode": "hull", "links": {"{hand}_t": {"mode": "decompose", "params": {"max_convex_hull": 3}}}}
@@ -93,6 +94,7 @@ def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
     assert _hull_bytes(out) == capped
 
 
+@pytest.mark.slow
 def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
     config = hand_config(tmp_path, {"mode": "hull", "links": {"{hand}_q": {"mode": "decompose"}}})
     args = ("build", "--config", str(config), "--out", str(tmp_path / "out"), "--timings")
@@ -119,6 +121,7 @@ def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None
     assert max(per_body.values()) > 1  # really decomposed, not one hull each
 
 
+@pytest.mark.slow
 def test_primitive_collisions_compile_and_simulate(tmp_path: Path) -> None:
     config = hand_config(
         tmp_path, {"mode": "primitive", "primitive": "capsule", "links": {"{hand}_e1": {"primitive": "box"}}}
@@ -139,23 +142,10 @@ def test_primitive_collisions_compile_and_simulate(tmp_path: Path) -> None:
     assert urdf.find("link[@name='right_hand_e1']/collision/geometry/box") is not None
 
 
-def test_vendor_description_compiles_and_simulates_without_warnings(tmp_path: Path) -> None:
-    if not VENDOR_SVH.is_dir():
-        pytest.skip("../shared/vendor is not beside this checkout")
-    out = tmp_path / "vendor"
-    result = cli(
-        "build",
-        "--config",
-        str(REPO / "config" / "vendor.yaml"),
-        "--out",
-        str(out),
-        "--package",
-        f"schunk_svh_driver={VENDOR_SVH}",
-        "--package",
-        f"ur_description={VENDOR_UR}",
-        cache=Path(os.environ.get("SVHDESC_CACHE", tmp_path / "cache")),
-    )
-    assert result.returncode == 0, result.stderr
+@pytest.mark.slow
+@pytest.mark.xdist_group("vendor")
+def test_vendor_description_compiles_and_simulates_without_warnings(vendor_build: tuple[Path, object]) -> None:
+    out, _ = vendor_build
     for variant in ("svh_vendor_right", "svh_vendor_left", "ur5_svh_vendor_right"):
         check = subprocess.run(
             [

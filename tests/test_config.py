@@ -28,6 +28,7 @@ def build_with(tmp_path: Path, overrides: dict) -> tuple[etree._ElementTree, etr
     return etree.parse(str(directory / "hand.urdf")), etree.parse(str(directory / "hand.xml"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "condim", "mu"), [("point", "1", 0.0), ("hard_finger", "3", 0.7), ("soft_finger", "4", 0.7)]
 )
@@ -44,6 +45,7 @@ def test_grasp_contact_model_sets_condim_and_gazebo_friction(
     assert (torsional is not None) == (model == "soft_finger")
 
 
+@pytest.mark.slow
 def test_explicit_inertial_wins_and_effort_interface(tmp_path: Path) -> None:
     inertial = {"mass": 0.05, "com": [0.01, 0.0, 0.0], "inertia": [1e-5, 0.0, 0.0, 2e-5, 0.0, 2e-5]}
     urdf, mjcf = build_with(

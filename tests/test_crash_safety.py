@@ -69,6 +69,7 @@ def wait_for(process: subprocess.Popen[str], text: str) -> None:
     raise AssertionError(f"build ended before {text!r} (exit {process.wait()})")
 
 
+@pytest.mark.slow
 def test_sigkill_inside_the_swap_leaves_whole_variants_and_the_next_build_cleans_up(tmp_path: Path) -> None:
     root, out = project(tmp_path), tmp_path / "out"
     assert build(root, out).returncode == 0
@@ -99,6 +100,7 @@ def test_recover_puts_back_a_variant_moved_aside_by_the_rename_fallback(tmp_path
     assert [p.name for p in out.iterdir()] == ["hand"]
 
 
+@pytest.mark.slow
 def test_concurrent_builds_into_one_out_serialise(tmp_path: Path) -> None:
     root, out = project(tmp_path), tmp_path / "out"
     release = tmp_path / "release"
@@ -137,6 +139,7 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
 def test_decomposition_workers_die_with_a_killed_build(tmp_path: Path) -> None:
     params = "{mode: decompose, params: {threshold: 0.02, max_convex_hull: -1, resolution: 4000}}"
@@ -162,6 +165,7 @@ def test_decomposition_workers_die_with_a_killed_build(tmp_path: Path) -> None:
     assert not [p for p in workers if _alive(p)]
 
 
+@pytest.mark.slow
 def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None:
     params = "{mode: decompose, params: {threshold: 0.1, max_convex_hull: 2, resolution: 500}}"
     root = project(tmp_path, variants=1, collision=params)
@@ -200,6 +204,7 @@ def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: byt
     assert (out / "mini" / "manifest.json").read_bytes() == good
 
 
+@pytest.mark.slow
 def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path) -> None:
     root, out = project(tmp_path), tmp_path / "out"
     assert build(root, out).returncode == 0

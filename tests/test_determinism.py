@@ -26,6 +26,7 @@ from .support import REPO, run_cli
 PERTURB = {exact.PERTURB_ENV: "4"}
 
 
+@pytest.mark.slow
 def test_perturbed_build_differs_in_bytes_but_passes_check(tmp_path: Path) -> None:
     out = tmp_path / "gen"
     result = run_cli("build", "svh_right", "--force", "--out", str(out), env=PERTURB)
@@ -45,6 +46,7 @@ def _bump_number(text: str, attribute: str, index: int, factor: float) -> str:
     return text[: match.start(1)] + " ".join(values) + text[match.end(1) :]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("index", [0, 5])  # a diagonal moment and the smallest off-diagonal product
 def test_check_fails_on_a_change_of_1e9_relative(tmp_path: Path, index: int) -> None:
     out = tmp_path / "gen"

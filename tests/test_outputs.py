@@ -206,6 +206,7 @@ def test_urdf_and_mjcf_describe_the_same_kinematics(variant: str) -> None:
             assert angle < 1e-6
 
 
+@pytest.mark.slow
 def test_outputs_are_byte_identical_across_builds(tmp_path) -> None:  # type: ignore[no-untyped-def]
     from .support import run_cli
 

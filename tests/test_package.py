@@ -10,6 +10,8 @@ import sys
 import venv
 from pathlib import Path
 
+import pytest
+
 from .support import REPO, VARIANTS
 
 
@@ -27,6 +29,7 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_build_inside_another_checkout_builds_that_checkout(tmp_path: Path) -> None:
     clone = tmp_path / "clone"
     for name in ("config", "xacro", "meshes", "generated", "svhdesc"):
@@ -43,6 +46,7 @@ def test_build_inside_another_checkout_builds_that_checkout(tmp_path: Path) -> N
     assert _digest(ours) == before
 
 
+@pytest.mark.slow
 def test_build_with_a_users_config_writes_beside_it(tmp_path: Path) -> None:
     config = tmp_path / "mine" / "robot.yaml"
     config.parent.mkdir()
@@ -57,6 +61,7 @@ def test_build_with_a_users_config_writes_beside_it(tmp_path: Path) -> None:
     assert not (REPO / "generated" / "my_hand").exists()
 
 
+@pytest.mark.slow
 def test_installed_wheel_works_anywhere(tmp_path: Path) -> None:
     wheels = tmp_path / "wheels"
     subprocess.run(
