@@ -20,7 +20,6 @@ import pytest
 from lxml import etree
 
 from .support import VARIANTS
-from .test_fidelity import known_gaps_only
 
 REPO = Path(__file__).resolve().parents[1]
 VARIANT = "svh_right"
@@ -225,10 +224,9 @@ def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
     report = tmp_path / "report.json"
     result = run("validate", variant, "--json", str(report), "--plots", str(tmp_path / "plots"))
     checks = json.loads(report.read_text())
-    failing = [c for c in checks["variants"][0]["checks"] if c["status"] != "pass"]
-    # The one known modelling gap (tests/test_fidelity.py, KNOWN_FIDELITY_GAPS) and nothing else.
-    assert all(c["name"] == "collision_fidelity" and known_gaps_only(c) for c in failing), result.stdout
-    assert result.returncode == (1 if failing else 0), result.stdout + result.stderr
+    failing = [c["name"] for c in checks["variants"][0]["checks"] if c["status"] != "pass"]
+    assert failing == [], result.stdout
+    assert result.returncode == 0, result.stdout + result.stderr
     text = json.dumps(checks)
     assert "contact_stability" in text and "not run" not in text
     assert sorted(p.suffix for p in (tmp_path / "plots").iterdir()) == [".png", ".png"]

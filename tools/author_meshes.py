@@ -88,8 +88,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from lxml import etree
-from slice_solid import slice_solid
-from vendor_slices import SLICES
+from slice_solid import links, slice_solid
 
 from svhdesc.exact import perturbed
 
@@ -410,7 +409,7 @@ SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
     "m": lambda: svh_middle(22.0, -7.98, 6.03, 9.96),
     "q": svh_distal,
 }
-SVH |= {name: fitted(SVH[name], name) for name in SLICES}
+SVH |= {name: fitted(SVH[name], name) for name in links()}
 
 # mirror (axis name) under which a link mesh must be invariant
 SVH_SYMMETRY = {

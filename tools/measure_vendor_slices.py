@@ -1,4 +1,4 @@
-"""Measure the 1 mm x 1 mm slices of the vendor finger and thumb parts; writes tools/vendor_slices.py.
+"""Measure the 1 mm x 1 mm slices of the vendor finger and thumb parts; writes tools/vendor_slices.json.
 
 Run as ``python tools/measure_vendor_slices.py [VENDOR_FOLDER]`` (default: ../shared/vendor/schunk_svh_driver).
 Per link (frame of svh.urdf.xacro, right hand, mm): slabs SLAB long in x from x0; in each, per level z = 0,
@@ -16,6 +16,7 @@ forks, which convex slab envelopes filled.
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -24,7 +25,7 @@ import numpy as np
 import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "tools" / "vendor_slices.py"
+OUT = ROOT / "tools" / "vendor_slices.json"
 LINKS = ("a", "b", "c", "l", "p", "t", "k", "o", "s", "j", "n", "r", "i", "m", "q")
 SLAB = 1.0  # mm, slab length along x
 LEVEL = 0.5  # mm between levels
@@ -72,26 +73,21 @@ def main(argv: list[str]) -> None:
 
     folder = Path(argv[0]) if argv else default_vendor_meshes()
     vendor = vendor_links(folder.resolve(), "right")
-    lines = [
-        '"""Slices of the vendor finger and thumb parts (FZI schunk_svh_driver meshes), measured by',
-        "tools/measure_vendor_slices.py: see there. Per link (mm, link frame of svh.urdf.xacro, right hand):",
-        f"(x0, ((level, ylo, yhi), ...)) for slabs x0 .. x0 + {SLAB:g} and bands |z -+ level| <= {BAND / 2:g}.",
-        '"""',
-        "",
-        f"SLAB = {SLAB}",
-        "",
-        "SLICES = {",
-    ]
+    rows = []
     for name in LINKS:
         mesh = vendor[name].mesh.copy()
         mesh.apply_scale(1e3)
-        lines.append(f'    "{name}": (')
         for x0, levels in slices(mesh):
-            body = ", ".join(f"({z:.1f}, {lo:.1f}, {hi:.1f})" for z, lo, hi in levels)
-            lines.append(f"        ({x0:.1f}, ({body},)),")
-        lines.append("    ),")
-    lines.append("}")
-    OUT.write_text("\n".join(lines) + "\n")
+            rows.append(json.dumps([name, x0, [[z, lo, hi] for z, lo, hi in levels]], separators=(",", ":")))
+    header = {
+        "about": "slices of the vendor finger and thumb parts, measured by tools/measure_vendor_slices.py (see there)",
+        "units": "mm, link frame of svh.urdf.xacro, right hand",
+        "rows": "[link, x0, [[level, ylo, yhi], ...]]: slab x0 .. x0 + slab, bands |z -+ level| <= band / 2",
+        "slab": SLAB,
+        "level": LEVEL,
+        "band": BAND,
+    }
+    OUT.write_text('{"header": ' + json.dumps(header) + ',\n"rows": [\n' + ",\n".join(rows) + "\n]}\n")
     print(f"wrote {OUT.relative_to(ROOT)}")
 
 

@@ -1,6 +1,6 @@
-"""The solid described by the measured vendor slices (tools/vendor_slices.py), which the authored parts are clipped to.
+"""The solid described by the measured vendor slices (tools/vendor_slices.json), which the authored parts are clipped to.
 
-Per slab (x0 .. x0 + SLAB) the levels split into runs at gaps (a fork's slot has none); each run, mirrored in z,
+Per slab (x0 .. x0 + slab) the levels split into runs at gaps (a fork's slot has none); each run, mirrored in z,
 is a polygon in the y-z plane whose sides join (yhi, z) and (ylo, z) level to level, extruded over the slab. A
 level joins its neighbours linearly, which contains the part: each level's y-extent holds over its whole band,
 and the bands of two neighbouring levels overlap between them. The polygon is built directly from the numbers
@@ -12,13 +12,16 @@ extent), and a level that its neighbours' line contains within SIMPLIFY is dropp
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
+from functools import cache
+from pathlib import Path
 
 import numpy as np
 import trimesh
-from vendor_slices import SLAB, SLICES
 
 Level = tuple[float, float, float]  # (z, ylo, yhi), mm
+DATA = Path(__file__).with_name("vendor_slices.json")
 MERGE = 0.2  # mm
 SIMPLIFY = 0.2  # mm
 MIN_WIDTH = 0.2  # mm, narrowest y-extent of a level (a band that only grazes the surface)
@@ -54,6 +57,7 @@ def runs(levels: Sequence[Level]) -> list[list[Level]]:
 def merged(slabs: Sequence[tuple[float, Sequence[Level]]]) -> list[tuple[float, float, list[Level]]]:
     """[(x_lo, x_hi, levels)]: neighbouring slabs with the same levels and y within MERGE joined."""
     out: list[tuple[float, float, list[Level]]] = []
+    slab = _data()[0]
     for x0, levels in slabs:
         prev = out[-1] if out else None
         if (
@@ -63,9 +67,9 @@ def merged(slabs: Sequence[tuple[float, Sequence[Level]]]) -> list[tuple[float, 
             and all(abs(a[1] - b[1]) <= MERGE and abs(a[2] - b[2]) <= MERGE for a, b in zip(prev[2], levels))
         ):
             joined = [(a[0], min(a[1], b[1]), max(a[2], b[2])) for a, b in zip(prev[2], levels)]
-            out[-1] = (prev[0], x0 + SLAB, joined)
+            out[-1] = (prev[0], x0 + slab, joined)
         else:
-            out.append((x0, x0 + SLAB, list(levels)))
+            out.append((x0, x0 + slab, list(levels)))
     return out
 
 
@@ -108,13 +112,27 @@ def prism(x_lo: float, x_hi: float, run: Sequence[Level], widen: float = 0.0) ->
     return trimesh.Trimesh(vertices, np.array(faces), process=False)
 
 
+@cache
+def _data() -> tuple[float, dict[str, list[tuple[float, list[Level]]]]]:
+    document = json.loads(DATA.read_text())
+    slices: dict[str, list[tuple[float, list[Level]]]] = {}
+    for name, x0, levels in document["rows"]:
+        slices.setdefault(name, []).append((float(x0), [(float(z), float(lo), float(hi)) for z, lo, hi in levels]))
+    return float(document["header"]["slab"]), slices
+
+
+def links() -> list[str]:
+    """The links that have slices."""
+    return list(_data()[1])
+
+
 def slice_solid(name: str) -> trimesh.Trimesh:
     """The union of the extruded slice polygons of the vendor part ``name`` (mm)."""
     # Every other slab WIDEN wider: the 0.1 mm grid of the numbers made neighbouring slabs touch along an edge
     # (not a closed manifold once welded); offset by less than the grid, they overlap or stay apart instead.
     pieces = [
         prism(lo, hi, simplified(run), WIDEN * (k % 2))
-        for k, (lo, hi, levels) in enumerate(merged(SLICES[name]))
+        for k, (lo, hi, levels) in enumerate(merged(_data()[1][name]))
         for run in runs(levels)
     ]
     return trimesh.boolean.union(pieces, engine="manifold")
