@@ -89,6 +89,7 @@ import numpy as np
 import trimesh
 from lxml import etree
 from slice_solid import links, slice_solid
+from vendor_envelopes import ENVELOPE_STEP, ENVELOPES
 
 from svhdesc.exact import perturbed
 
@@ -364,11 +365,41 @@ def svh_distal() -> trimesh.Trimesh:
     )
 
 
+MERGE_MM = 0.2
+
+
+def envelope(name: str) -> trimesh.Trimesh:
+    """The measured envelope of the vendor part (vendor_envelopes.py): one 16-sided prism per slab."""
+    # Neighbouring slabs within MERGE_MM of each other become one (their larger support): fewer steps.
+    runs: list[tuple[float, float, list[float]]] = []
+    for x, *half in ENVELOPES[name]:
+        lo, hi = x - ENVELOPE_STEP / 2, x + ENVELOPE_STEP / 2
+        if runs and max(abs(a - b) for a, b in zip(runs[-1][2], half)) < MERGE_MM:
+            runs[-1] = (runs[-1][0], hi, [max(a, b) for a, b in zip(runs[-1][2], half)])
+        else:
+            runs.append((lo, hi, list(half)))
+    prisms = []
+    for lo, hi, half in runs:
+        support = [*half, *half[-2:0:-1]]  # h(-theta) = h(theta): 0 .. 180 degrees, then back to 0
+        angles = np.radians(np.arange(len(support)) * 360.0 / len(support))
+        corners = []
+        for k in range(len(support)):
+            a, b = angles[k], angles[(k + 1) % len(support)]
+            normals = np.array([[np.cos(a), np.sin(a)], [np.cos(b), np.sin(b)]])
+            corners.append(np.linalg.solve(normals, [support[k], support[(k + 1) % len(support)]]))
+        yz = np.array(corners)
+        ends = [np.column_stack([np.full(len(yz), x), yz]) for x in (lo, hi)]
+        prisms.append(hull_points(*ends))
+    return union(*prisms)
+
+
 def fitted(make: Callable[[], trimesh.Trimesh], name: str) -> Callable[[], trimesh.Trimesh]:
-    """An authored part clipped to the slices of the vendor part (tools/slice_solid.py): a primitive that bulges
-    past the real part (a rounded box where the phalanx tapers, a block across a fork's slot or a groove) would
-    make the fingers collide where the real ones pass."""
-    return lambda: simplified(inter(make(), slice_solid(name)))
+    """An authored part clipped to the vendor part's convex slab envelope and to its slices (tools/slice_solid.py):
+    a primitive that bulges past the real part (a rounded box where the phalanx tapers, a block across a fork's
+    slot or a groove) would make the fingers collide where the real ones pass. The slices keep the grooves and
+    forks that the convex envelope fills; the envelope (16 directions) follows rounded ends closer than the
+    slices' 1 mm steps (those left the fingertips up to 1 mm outside the vendor part)."""
+    return lambda: simplified(inter(make(), envelope(name), slice_solid(name)))
 
 
 SIMPLIFY_MM = 1e-3
@@ -409,7 +440,7 @@ SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
     "m": lambda: svh_middle(22.0, -7.98, 6.03, 9.96),
     "q": svh_distal,
 }
-SVH |= {name: fitted(SVH[name], name) for name in links()}
+SVH |= {name: fitted(SVH[name], name) for name in links() if name in ENVELOPES}
 
 # mirror (axis name) under which a link mesh must be invariant
 SVH_SYMMETRY = {
