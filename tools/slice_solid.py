@@ -1,4 +1,4 @@
-"""The solid described by the measured vendor slices (tools/vendor_slices.json), which the authored parts are clipped to.
+"""The solid described by the measured vendor slices (tools/vendor_slices.json), which authored parts are clipped to.
 
 Per slab (x0 .. x0 + slab) the levels split into runs at gaps (a fork's slot has none); each run, mirrored in z,
 is a polygon in the y-z plane whose sides join (yhi, z) and (ylo, z) level to level, extruded over the slab. A

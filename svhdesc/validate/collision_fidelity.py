@@ -4,7 +4,8 @@ Over poses across the full range (each hand channel swept alone, then random pos
 joints follow their polynomial), every pair of bodies whose collision geoms touch in the MJCF is compared
 with the vendor's visual meshes of the same two links, placed by the same body poses: a pair whose collision
 geometry penetrates more than DEPTH while the vendor parts stay more than GAP apart is a modelling error (it
-stops a finger where the real hand moves freely). Pairs with a body the vendor does not describe (the arm) are not judged.
+stops a finger where the real hand moves freely). Pairs with a body the vendor does not describe (the arm) are
+not judged.
 """
 
 from __future__ import annotations
