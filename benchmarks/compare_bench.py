@@ -13,7 +13,9 @@ import argparse
 import time
 from pathlib import Path
 
+from svhdesc.compare.engine import RunConfig
 from svhdesc.compare.experiment import Conditions
+from svhdesc.compare.ode_engine import OdeEngine
 from svhdesc.compare.report import markdown, plot, plot_overview, summary, write_csv, write_json
 from svhdesc.compare.runner import run_grid
 
@@ -51,22 +53,44 @@ def table_5_1() -> str:
     )
 
 
-def with_feedforward(variant: str, conditions: Conditions) -> str:
-    """ODE with the gravity feedforward the other engines' servos have, at the thesis' inertias."""
+class OdeWithoutDamping(OdeEngine):
+    """ODE as Gazebo runs it, without the URDF's joint damping (for ``damping_probe``)."""
+
+    name = "ode-undamped"
+
+    def load(self, config: RunConfig) -> None:
+        super().load(config)
+        for joint in self.joint_info.values():
+            joint.damping = 0.0
+
+
+def damping_probe(variant: str, conditions: Conditions) -> str:
+    """ODE at the physical inertials with and without the URDF's joint damping (applied explicitly, as Gazebo)."""
     from svhdesc.compare import runner
 
+    runner.ENGINES.setdefault("ode-undamped", f"{__name__}:OdeWithoutDamping")
+    _, results = run_grid(variant, ["ode", "ode-undamped"], [None], 1.0, None, conditions)
+    return "; ".join(f"{r.engine} physical, 1 s: {r.status} {r.note}".strip() for r in results)
+
+
+def ode_servos(variant: str, conditions: Conditions) -> str:
+    """ODE with gazebo_ros_control's POSITION_PID (the comparison's kp/kv), without and with a gravity feedforward."""
+    from svhdesc.compare import runner
+
+    runner.ENGINES.setdefault("ode-pid", "svhdesc.compare.ode_engine:OdePid")
     runner.ENGINES.setdefault("ode-feedforward", "svhdesc.compare.ode_engine:OdeWithFeedforward")
-    _, results = run_grid(variant, ["ode-feedforward"], [0.001, 0.01, 0.1], None, None, conditions)
+    engines = ["ode-pid", "ode-feedforward"]
+    _, results = run_grid(variant, engines, [0.001, 0.01, 0.1], None, None, conditions)
     lines = [
-        "| ode + gravity feedforward | average MAD [rad] | force mean +- std [N] | in contact | fingertip error [mm] |",
-        "|---|---|---|---|---|",
+        "| ODE servo | inertia | average MAD [rad] | force mean +- std [N] | in contact | fingertip error [mm] |",
+        "|---|---|---|---|---|---|",
     ]
     for run in results:
         if run.status != "ok":
-            lines.append(f"| {run.label} | {run.status} {run.note} | | | |")
+            lines.append(f"| {run.engine} | {run.label} | {run.status} {run.note} | | | |")
             continue
         lines.append(
-            f"| {run.label} | {run.mad_average:.2e} | {run.force_mean:.3g} +- {run.force_std:.2g} | "
+            f"| {run.engine} | {run.label} | {run.mad_average:.2e} | {run.force_mean:.3g} +- {run.force_std:.2g} | "
             f"{run.contact_share:.0%} | {run.tip_error * 1e3:.1f} |"
         )
     return "\n".join(lines)
@@ -119,7 +143,9 @@ def main() -> None:
     print()
     print(table_5_1())
     print()
-    print(with_feedforward(args.variant, conditions))
+    print(ode_servos(args.variant, conditions))
+    print()
+    print(damping_probe(args.variant, conditions))
     write_json(args.out / "compare.json", args.variant, setup, results, args.duration, conditions)
     write_csv(args.out / "compare.csv", results)
     plot(results, args.out / "plots", args.variant)

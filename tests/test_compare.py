@@ -276,24 +276,70 @@ def test_ode_world_matches_the_model_at_home() -> None:
         ode.close()
 
 
-ODE_RETUNE = (
-    "ODE setup tuned on the 1-2 N m placeholder efforts; with the driver-derived efforts (issue 15) it no longer "
-    "presses as the test expects: to be re-tuned"
-)
-
-
-@pytest.mark.xfail(reason=ODE_RETUNE, strict=False)
 def test_ode_presses_the_surface_at_a_thesis_inertia() -> None:
+    # gazebo_ros_control as generated (no pid_gains: POSITION, Joint::SetPosition every step, fmax at the
+    # URDF effort) holds the pose against the arm's weight; the fingertip presses the surface.
     _ode_or_skip()
     setup, results = run_grid(VARIANT, ["ode"], [0.01], SHORT)
     result = results[0]
     assert result.status == STATUS_OK, result.note
     assert result.settings["timestep"] == pytest.approx(0.001)
     assert "quickstep, 50 iterations, SOR 1.3" in result.settings["solver"]
+    assert result.settings["servo"].startswith("gazebo_ros_control POSITION (no pid_gains")
     index = [setup.joints.index(c.joint) for c in setup.couplings]
     assert np.abs(result.qpos[:, index]).max() > 0.3  # the couplings move
-    assert result.contact_share > 0 and result.force_mean > 0
-    assert np.isfinite(result.mad_average)
+    assert result.coupling_residual_free <= 1e-2
+    assert result.contact_share > 0.9 and result.force_mean > 1.0 and result.reached
+    assert np.isfinite(result.mad_average) and result.mad_average > 0
+
+
+def test_ode_servo_mode_follows_the_generated_controllers(tmp_path) -> None:
+    # DefaultRobotHWSim::initSim: POSITION_PID only for joints with gazebo_ros_control/pid_gains.
+    import yaml
+
+    import svhdesc
+    from svhdesc.compare.ode_engine import pid_gains, read_pid_gains
+
+    generated = yaml.safe_load((svhdesc.get(VARIANT).directory / "config" / "ros_controllers.yaml").read_text())
+    assert "gazebo_ros_control" not in generated and pid_gains(VARIANT) == {}
+    with_gains = tmp_path / "ros_controllers.yaml"
+    with_gains.write_text(
+        yaml.safe_dump({**generated, "gazebo_ros_control": {"pid_gains": {"elbow_joint": {"p": 100.0, "d": 2}}}})
+    )
+    assert read_pid_gains(with_gains) == {"elbow_joint": {"p": 100.0, "i": 0.0, "d": 2.0, "i_clamp": 0.0}}
+    assert read_pid_gains(tmp_path / "missing.yaml") == {}
+
+
+def test_ode_position_mode_sets_saturated_commands() -> None:
+    # POSITION: each actuated joint is set to its command, which joint_limits_interface first limits to the
+    # URDF's velocity x period and position range.
+    _ode_or_skip()
+    import svhdesc
+    from svhdesc.compare.engine import RunConfig
+    from svhdesc.compare.mujoco_engine import finger_links, servo
+    from svhdesc.compare.ode_engine import POSITION, OdeEngine
+
+    mjcf = svhdesc.get(VARIANT).mjcf_path
+    setup = experiment.define(mjcf)
+    links = finger_links(mjcf)
+    engine = OdeEngine()
+    engine.load(RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated)))
+    try:
+        assert engine.modes == [POSITION] * len(setup.actuated)
+        middle = setup.actuated.index("right_hand_Middle_Finger_Distal")
+        targets = setup.home_ctrl.copy()
+        targets[middle] += 0.5
+        commands = engine._saturate(targets)
+        assert commands[middle] == pytest.approx(setup.home_ctrl[middle] + 0.001 * engine.max_velocity[middle])
+        targets[middle] = -1.0  # below the joint's lower limit 0
+        assert engine._saturate(targets)[middle] == pytest.approx(0.0)
+        targets[middle] = setup.home_ctrl[middle] + 0.001
+        engine.previous_command = None
+        engine._write(engine._saturate(targets))
+        positions = np.array([engine._position(n) for n in setup.actuated])
+        assert positions == pytest.approx(engine.previous_command, abs=1e-12)
+    finally:
+        engine.close()
 
 
 def test_missing_ode_is_reported_as_not_installed(tmp_path) -> None:
@@ -313,9 +359,9 @@ def test_missing_ode_is_reported_as_not_installed(tmp_path) -> None:
 def test_every_deviation_is_stated_and_thesis_setup_follows_the_thesis(tmp_path) -> None:
     ours = experiment.Conditions()
     stated = {d["what"] for d in ours.describe()["deviations"]}
-    assert {"surface", "timing", "test pose", "link masses", "sampling", "force"} <= stated
+    assert {"surface", "timing", "servos", "test pose", "link masses", "sampling", "force"} <= stated
     thesis = experiment.Conditions(thesis=True, window="trailing")
-    assert {d["what"] for d in thesis.describe()["deviations"]} == {"surface", "timing"}
+    assert {d["what"] for d in thesis.describe()["deviations"]} == {"surface", "timing", "servos"}
     assert (thesis.sample_dt, thesis.link_mass, thesis.force) == (0.02, 0.01, "vertical")
     assert thesis.test_pose["shoulder_lift_joint"] == 0.4014 and thesis.test_pose["wrist_1_joint"] == 2.3387
 
@@ -385,15 +431,18 @@ def test_servo_gains_are_the_generated_connector_gains() -> None:
     assert [by_name[n]["d_gain"] for n in setup.actuated] == pytest.approx(gains.kv, rel=1e-12)
 
 
-@pytest.mark.xfail(reason=ODE_RETUNE, strict=False)
 def test_ode_gravity_feedforward_takes_the_arms_weight_off_the_fingertip() -> None:
-    # gazebo_ros_control's PID alone lets the arm's weight lean on the fingertip; the feedforward variant
-    # (what the other engines' servos do) presses with the servo error alone: a few newtons.
+    # gazebo_ros_control's POSITION_PID alone (the comparison's kp/kv as pid_gains) lets the arm's weight lean
+    # on the fingertip; the feedforward variant (what the other engines' servos do) presses with the servo
+    # error alone: a few newtons.
     _ode_or_skip()
     from svhdesc.compare import runner
 
+    runner.ENGINES.setdefault("ode-pid", "svhdesc.compare.ode_engine:OdePid")
     runner.ENGINES.setdefault("ode-feedforward", "svhdesc.compare.ode_engine:OdeWithFeedforward")
-    _, (plain, compensated) = run_grid(VARIANT, ["ode", "ode-feedforward"], [0.01])  # full length: 5 s each
+    _, (plain, compensated) = run_grid(VARIANT, ["ode-pid", "ode-feedforward"], [0.01], SHORT)
     assert plain.status == compensated.status == STATUS_OK
+    assert "POSITION_PID on 15 joints" in plain.settings["servo"]
     assert "no gravity compensation" in plain.settings["servo"]
+    assert "plus a gravity feedforward" in compensated.settings["servo"]
     assert compensated.force_mean > 0 and plain.force_mean > 5 * compensated.force_mean

@@ -11,12 +11,16 @@ Gazebo Classic, the engine of thesis Table 5.1, runs ODE. This adapter rebuilds 
   the pairs the MJCF excludes; with the surface as the only other body, only robot-surface pairs matter).
 - Solver: quickstep at 1 ms with Gazebo's ODE defaults (``GAZEBO_ODE``, read from sdformat's physics.sdf and
   surface.sdf; ``tests/test_compare.py`` checks them against the installed sdformat spec).
-- Servos: gazebo_ros_control's POSITION_PID law, effort = clamp(p e + d de/dt) at the URDF effort limit
-  (i = 0), and nothing else: no gravity compensation, as in Gazebo. The generated ros_controllers.yaml
-  declares no ``gazebo_ros_control/pid_gains`` (gazebo_ros_control would then set each joint's position
-  outright, Joint::SetPosition), so the gains are the model's kp and kv (connector.yaml's p_gain/d_gain at
-  the physical setting), the ones DART and Drake get. ``OdeWithFeedforward`` adds the gravity feedforward
-  the other engines' servos have (run by benchmarks/compare_bench.py).
+- Servos: gazebo_ros_control's DefaultRobotHWSim as the generated files configure it. The URDF's
+  transmissions declare ``PositionJointInterface``; each command is first saturated by joint_limits_interface
+  (PositionJointSaturationHandle: the URDF's position limits, and at most velocity x period from the previous
+  command). The generated ros_controllers.yaml declares no ``gazebo_ros_control/pid_gains``, so writeSim runs
+  POSITION: Joint::SetPosition(0, command, preserveWorldVelocity=true) before every step, with the joint's
+  motor holding zero velocity up to the URDF effort (initSim's SetParam("fmax")). A joint that has pid_gains
+  there runs POSITION_PID: effort = clamp(p e + i-term + d de/dt) at the URDF effort, as a joint force, and no
+  gravity compensation. ``OdePid`` runs POSITION_PID with the comparison's kp and kv (connector.yaml's
+  p_gain/d_gain at the physical setting) for every servo, and ``OdeWithFeedforward`` adds to it the gravity
+  feedforward the other engines' servos have (both run by benchmarks/compare_bench.py).
 - Couplings: the URDF's roboticsgroup mimic-joint plugins without ``hasPID``: before every step the
   follower is set to multiplier * leader + offset by Joint::SetPosition(0, angle, preserveWorldVelocity=true)
   (the follower's subtree is rotated about the joint, world velocities kept), and its joint motor holds
@@ -60,7 +64,25 @@ GAZEBO_ODE = {
     "limit_erp": 0.2,
 }
 GRAVITY = (0.0, 0.0, -9.81)
+POSITION, POSITION_PID = "POSITION", "POSITION_PID"  # DefaultRobotHWSim's control methods
 MAX_COLLIDE = 250  # contacts asked of dCollide per pair before keeping the deepest max_contacts
+
+
+def pid_gains(variant: str) -> dict[str, dict[str, float]]:
+    """``gazebo_ros_control/pid_gains/<joint>`` (p, i, d, i_clamp) of the variant's generated ros_controllers.yaml."""
+    import svhdesc
+
+    return read_pid_gains(svhdesc.get(variant).directory / "config" / "ros_controllers.yaml")
+
+
+def read_pid_gains(path: Path) -> dict[str, dict[str, float]]:
+    """What gazebo_ros_control's initSim finds under ``gazebo_ros_control/pid_gains`` in a controllers file."""
+    import yaml
+
+    document = yaml.safe_load(path.read_text()) if path.is_file() else None
+    gains = ((document or {}).get("gazebo_ros_control") or {}).get("pid_gains") or {}
+    keys = ("p", "i", "d", "i_clamp")
+    return {name: {k: float(values.get(k, 0.0)) for k in keys} for name, values in gains.items()}
 
 
 def import_ode() -> Any:
@@ -76,6 +98,7 @@ class OdeEngine(Engine):
     install = "apt-get install python3-pyode"
     distribution = "Py3ODE"
     gravity_feedforward = False  # gazebo_ros_control has none
+    comparison_pid = False  # True: POSITION_PID with the comparison's kp/kv for every servo (OdePid)
 
     @classmethod
     def require(cls) -> None:
@@ -110,8 +133,7 @@ class OdeEngine(Engine):
             hinge.setParam(self.ode.ParamFMax, mimic.max_effort)
         self.names = list(setup.joints)
         self.actuated = list(setup.actuated)
-        self.kp, self.kd, self.limit = config.servo.kp, config.servo.kv, config.servo.limit
-        self.previous_error: np.ndarray | None = None
+        self._make_servos(config)
         # Gravity feedforward per actuated joint: the weight of every body below it, as a rigid subtree.
         self.lumps = list(self.bodies)
         self.masses = np.array([self.bodies[n].getMass().mass for n in self.lumps])
@@ -119,6 +141,59 @@ class OdeEngine(Engine):
             [[lump in self.subtree[name] for lump in self.lumps] for name in self.actuated], dtype=float
         )
         self._make_surface(setup, links, pose, lump)
+
+    def _make_servos(self, config: RunConfig) -> None:
+        """DefaultRobotHWSim::initSim: POSITION_PID where pid_gains are given, else POSITION with fmax."""
+        count = len(self.actuated)
+        if self.comparison_pid:
+            pairs = zip(self.actuated, config.servo.kp, config.servo.kv, strict=True)
+            gains = {n: {"p": p, "i": 0.0, "d": d, "i_clamp": 0.0} for n, p, d in pairs}
+        else:
+            gains = pid_gains(config.variant)
+        self.modes = [POSITION_PID if name in gains else POSITION for name in self.actuated]
+        self.kp = np.array([gains.get(n, {}).get("p", 0.0) for n in self.actuated])
+        self.ki = np.array([gains.get(n, {}).get("i", 0.0) for n in self.actuated])
+        self.kd = np.array([gains.get(n, {}).get("d", 0.0) for n in self.actuated])
+        self.i_clamp = np.array([gains.get(n, {}).get("i_clamp", 0.0) for n in self.actuated])
+        joints = [self.joint_info[n] for n in self.actuated]
+        self.limit = np.array([j.effort for j in joints])  # registerJointLimits: the URDF's effort
+        self.lower = np.array([j.lower if j.kind == "revolute" else -np.inf for j in joints])
+        self.upper = np.array([j.upper if j.kind == "revolute" else np.inf for j in joints])
+        self.max_velocity = np.array([j.velocity for j in joints])
+        self.integral, self.previous_error = np.zeros(count), np.zeros(count)
+        self.previous_command: np.ndarray | None = None
+        for name, mode, effort in zip(self.actuated, self.modes, self.limit, strict=True):
+            if mode == POSITION:  # SetParam("fmax", 0, effort limit): a motor holding zero velocity
+                self.hinges[name].setParam(self.ode.ParamVel, 0.0)
+                self.hinges[name].setParam(self.ode.ParamFMax, float(effort))
+
+    def _saturate(self, targets: np.ndarray) -> np.ndarray:
+        """joint_limits_interface's PositionJointSaturationHandle on every position command."""
+        previous = self.previous_command
+        if previous is None:
+            previous = np.array([self._position(name) for name in self.actuated])
+        reach = self.max_velocity * self._dt
+        low, high = np.maximum(previous - reach, self.lower), np.minimum(previous + reach, self.upper)
+        self.previous_command = np.clip(targets, low, high)
+        return self.previous_command
+
+    def _write(self, commands: np.ndarray) -> None:
+        """DefaultRobotHWSim::writeSim: SetPosition for POSITION joints, a clamped PID force for POSITION_PID."""
+        positions = np.array([self._position(name) for name in self.actuated])
+        error = commands - positions
+        # control_toolbox::Pid::computeCommand: d from the error's change over the period (the last error
+        # starts at 0), the integral term clamped to +-i_clamp.
+        derivative = (error - self.previous_error) / self._dt
+        self.previous_error = error
+        self.integral += error * self._dt
+        integral = np.clip(self.ki * self.integral, -self.i_clamp, self.i_clamp)
+        pid = self.kp * error + integral + self.kd * derivative + self._gravity()
+        effort = np.clip(pid, -self.limit, self.limit)
+        for index, name in enumerate(self.actuated):
+            if self.modes[index] == POSITION:
+                self._rotate(name, float(error[index]))
+            else:
+                self.hinges[name].addTorque(self.sign[name] * float(effort[index]))
 
     def _make_world(self) -> None:
         ode, lib = self.ode, self.lib
@@ -282,19 +357,12 @@ class OdeEngine(Engine):
 
     def step(self, targets: np.ndarray) -> None:
         lib = self.lib
-        # Mimic plugins (WorldUpdateBegin): followers set from their leaders.
+        # WorldUpdateBegin, in the plugins' order in the URDF: gazebo_ros_control (readSim, the controllers,
+        # writeSim), then the mimic plugins, which set each follower from its leader.
+        self._write(self._saturate(targets))
         for mimic in self.mimics:
             angle = self._position(mimic.leader) * mimic.multiplier + mimic.offset
             self._rotate(mimic.follower, angle - self._position(mimic.follower))
-        # gazebo_ros_control writeSim, POSITION_PID: a PID on the position error (control_toolbox::Pid,
-        # derivative of the error over the period), clamped to the effort limit, as a joint force.
-        positions = np.array([self._position(name) for name in self.actuated])
-        error = targets - positions
-        derivative = np.zeros_like(error) if self.previous_error is None else (error - self.previous_error) / self._dt
-        self.previous_error = error
-        effort = np.clip(self.kp * error + self.kd * derivative + self._gravity(), -self.limit, self.limit)
-        for name, torque in zip(self.actuated, effort, strict=True):
-            self.hinges[name].addTorque(self.sign[name] * float(torque))
         # Joint damping, explicit (no implicit_spring_damper).
         for name, joint in self.joint_info.items():
             if joint.damping:
@@ -364,12 +432,26 @@ class OdeEngine(Engine):
             f"ERP {self.soft_erp:.6g} / CFM {self.soft_cfm:.3g} (surface kp {GAZEBO_ODE['kp']:g}, kd "
             f"{GAZEBO_ODE['kd']:g}); no self-collision (Gazebo's self_collide default)",
             "couplings": "mimic-joint plugin: SetPosition(preserveWorldVelocity) before each step, fmax = maxEffort",
-            "servo": "gazebo_ros_control POSITION_PID (p, d from the model, i 0), effort limits"
-            + (", plus a gravity feedforward" if self.gravity_feedforward else ", no gravity compensation"),
+            "servo": self._servo_text(),
             "friction": f"pyramid (Approx1), min of the two mu (fingertip {self.tip_mu:g}, surface 1)",
             "damping": "URDF joint damping, explicit",
             "armature": "none (URDF)",
         }
+
+    def _servo_text(self) -> str:
+        commands = "commands saturated at the URDF's position and velocity limits (joint_limits_interface)"
+        if POSITION_PID not in self.modes:
+            return (
+                "gazebo_ros_control POSITION (no pid_gains in the generated ros_controllers.yaml): "
+                f"Joint::SetPosition every step, fmax = the URDF effort; {commands}"
+            )
+        source = "the comparison's kp, kv, i 0" if self.comparison_pid else "pid_gains of ros_controllers.yaml"
+        return (
+            f"gazebo_ros_control POSITION_PID on {self.modes.count(POSITION_PID)} joints ({source}), clamped at the "
+            "URDF effort, "
+            + ("plus a gravity feedforward" if self.gravity_feedforward else "no gravity compensation")
+            + f"; {commands}"
+        )
 
     def close(self) -> None:
         lib = getattr(self, "lib", None)
@@ -386,8 +468,15 @@ class OdeEngine(Engine):
         self._meshes.clear()
 
 
-class OdeWithFeedforward(OdeEngine):
-    """The PID plus the gravity feedforward DART's and Drake's servos get (MuJoCo's model has its own)."""
+class OdePid(OdeEngine):
+    """gazebo_ros_control's POSITION_PID on every servo with the comparison's kp and kv (pid_gains set to them)."""
+
+    name = "ode-pid"
+    comparison_pid = True
+
+
+class OdeWithFeedforward(OdePid):
+    """That PID plus the gravity feedforward DART's and Drake's servos get (MuJoCo's model has its own)."""
 
     name = "ode-feedforward"
     gravity_feedforward = True

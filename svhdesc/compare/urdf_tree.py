@@ -74,6 +74,7 @@ class Joint:
     upper: float
     effort: float
     damping: float
+    velocity: float = math.inf  # rad/s, the URDF's limit (joint_limits_interface saturates commands with it)
 
 
 @dataclass
@@ -133,6 +134,7 @@ def read_urdf(text: str) -> tuple[dict[str, Link], list[Joint], list[Mimic]]:
                 float(limit.get("upper", "0")) if limit is not None else math.inf,
                 float(limit.get("effort", "inf")) if limit is not None else math.inf,
                 float(dynamics.get("damping", "0")) if dynamics is not None else 0.0,
+                float(limit.get("velocity", "inf")) if limit is not None else math.inf,
             )
         )
     mimics = []

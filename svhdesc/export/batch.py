@@ -5,12 +5,12 @@ from the same tree) with what batched engines need stated instead of left to def
 
 - options both Warp and MJX implement: Newton solver, elliptic cone, implicitfast integrator, and no noslip
   pass (neither has one that matches MuJoCo C's; Warp would otherwise ignore it without a word);
-- collision hulls capped at MAX_HULL_VERTICES vertices (``maxhullvert``): MJX's convex collision costs
-  grow with vertex count and it thins any coplanar face above 20 vertices;
-- explicit contact filtering: every collision geom says contype/conaffinity, visuals collide with nothing,
-  and the self-collision exclusions of the main model are kept;
-- ``<size nconmax njmax>``: per-world contact and constraint-row capacities, from a sampled worst case
-  (``svhdesc.batch_sizing``) times SIZE_MARGIN. Warp preallocates exactly this much; see ``svhdesc.batch``.
+- settings MuJoCo C and Warp then share instead of each choosing its own: solver tolerance TOLERANCE (Warp
+  raises any smaller one to it for float32), and no multi-contact convex collision (``multiccd``, on by default
+  in MuJoCo C): both implement it, but they decide differently whether two hulls touch face on. At the first
+  touch of middle and index finger (equivalence test, world 8) C gave two coincident contacts with a normal
+  5 degrees from Warp's single one; the worlds then parted by 1.6e-3 rad in 1 s. Without it both compute the
+  same single contact (benchmarks/batch_first_contacts.py) and that world stays within 5e-5 rad;
 """
 
 from __future__ import annotations
@@ -29,6 +29,8 @@ SIZE_MARGIN = 2.0  # capacities = margin x the sampled worst case, rounded up to
 SIZE_STEP = 8
 SCENE_FILE = "scene_batch.xml"
 OPTIONS = {"solver": "Newton", "cone": "elliptic", "integrator": "implicitfast"}
+TOLERANCE = 1e-6  # MuJoCo Warp's floor for opt.tolerance (float32)
+FLAGS = {"multiccd": "disable"}
 
 
 def model_file(robot_name: str) -> str:
@@ -62,6 +64,12 @@ def batch_tree(robot: Robot, capacities: Capacities | None) -> etree._Element:
     option.attrib.pop("noslip_iterations", None)
     for key, value in OPTIONS.items():
         option.set(key, value)
+    option.set("tolerance", f"{TOLERANCE:g}")
+    flag = option.find("flag")
+    if flag is None:
+        flag = etree.SubElement(option, "flag")
+    for key, value in FLAGS.items():
+        flag.set(key, value)
     if capacities is not None:
         option.addnext(
             etree.Comment(

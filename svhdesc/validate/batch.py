@@ -2,7 +2,8 @@
 
 Same robot: every kinematic, inertial, coupling and actuator array of ``<variant>_batch.xml`` equals the main
 MJCF's; options and capacities are what the batch exporter promises (no noslip, Newton, elliptic,
-implicitfast, ``<size nconmax njmax>``), and no collision hull has more than MAX_HULL_VERTICES vertices.
+implicitfast, Warp's solver tolerance, no multiccd, ``<size nconmax njmax>``), and no collision hull has more
+than MAX_HULL_VERTICES vertices.
 Warp: put_model, make_data with the stated capacities, WARP_STEPS steps of WARP_WORLDS worlds towards random
 servo targets without an overflow. MJX: put_model without a warning (it warns about hull faces above 20
 vertices). MJX's jit of a step is not run: on this CPU it takes longer than the whole validation.
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE
+from ..export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE, TOLERANCE
 from ..extras import MissingExtra
 from .options import Options
 from .pair import ModelPair
@@ -82,6 +83,10 @@ def compare_to_main(main: Any, batch: Any) -> list[str]:
     for key, value in expected.items():
         if int(getattr(batch.opt, key)) != int(value):
             problems.append(f"option {key} is not {OPTIONS[key]}")
+    if batch.opt.tolerance != TOLERANCE:
+        problems.append(f"solver tolerance {batch.opt.tolerance:g}, not the {TOLERANCE:g} MuJoCo Warp uses")
+    if not batch.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_MULTICCD:
+        problems.append("multiccd enabled (MuJoCo C and Warp choose its contacts differently)")
     if batch.nconmax <= 0 or batch.njmax <= 0:
         problems.append("no <size nconmax njmax>")
     mesh_type = int(mujoco.mjtGeom.mjGEOM_MESH)
