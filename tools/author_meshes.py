@@ -88,6 +88,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from lxml import etree
+from slice_solid import links, slice_solid
 from vendor_envelopes import ENVELOPE_STEP, ENVELOPES
 
 from svhdesc.exact import perturbed
@@ -96,7 +97,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"
 ROUND_M = 7  # decimals kept for coordinates in metres (0.1 um)
 DATE = "2000-01-01T00:00:00"
-MAX_TRIANGLES = 3000
+MAX_TRIANGLES = 15000
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 _PLANE = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
@@ -274,7 +275,7 @@ def svh_z() -> trimesh.Trimesh:
 
 def svh_a() -> trimesh.Trimesh:
     """Thumb proximal: root block, flexion motor and shaft (axis z at 0, next at x 48.5)."""
-    return union(  # coarse corners: the vendor envelope clips them (triangle budget)
+    return union(  # coarse corners: the vendor slices clip them (triangle budget)
         rbox((-14.45, -15.35, -9.6), (16.0, 18.11, 9.6), 4.0, 0),
         rbox((15.0, -15.35, -14.6), (40.0, 15.5, 14.6), 4.0, 1),
         rbox((38.0, -15.35, -9.2), (62.8, 13.8, 9.2), 5.0, 1),
@@ -393,9 +394,25 @@ def envelope(name: str) -> trimesh.Trimesh:
 
 
 def fitted(make: Callable[[], trimesh.Trimesh], name: str) -> Callable[[], trimesh.Trimesh]:
-    """An authored part clipped to its vendor envelope: a primitive that bulges past the real part (a
-    rounded box where the phalanx tapers) would make the fingers collide where the real ones pass."""
-    return lambda: inter(make(), envelope(name))
+    """An authored part clipped to the vendor part's convex slab envelope and to its slices (tools/slice_solid.py):
+    a primitive that bulges past the real part (a rounded box where the phalanx tapers, a block across a fork's
+    slot or a groove) would make the fingers collide where the real ones pass. The slices keep the grooves and
+    forks that the convex envelope fills; the envelope (16 directions) follows rounded ends closer than the
+    slices' 1 mm steps (those left the fingertips up to 1 mm outside the vendor part)."""
+    return lambda: simplified(inter(make(), envelope(name), slice_solid(name)))
+
+
+SIMPLIFY_MM = 1e-3
+
+
+def simplified(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Edges shorter and needles thinner than SIMPLIFY_MM collapsed (manifold3d): clipping by the slices left
+    triangles a fraction of a micrometre wide, which rounding to 0.1 um made degenerate (a hole once dropped)."""
+    import manifold3d
+
+    vertices, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.uint64)
+    out = manifold3d.Manifold(manifold3d.Mesh64(vertices, faces)).simplify(SIMPLIFY_MM).to_mesh64()
+    return trimesh.Trimesh(np.asarray(out.vert_properties)[:, :3], np.asarray(out.tri_verts), process=False)
 
 
 SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
@@ -423,7 +440,7 @@ SVH: dict[str, Callable[[], trimesh.Trimesh]] = {
     "m": lambda: svh_middle(22.0, -7.98, 6.03, 9.96),
     "q": svh_distal,
 }
-SVH |= {name: fitted(SVH[name], name) for name in ENVELOPES}
+SVH |= {name: fitted(SVH[name], name) for name in links() if name in ENVELOPES}
 
 # mirror (axis name) under which a link mesh must be invariant
 SVH_SYMMETRY = {

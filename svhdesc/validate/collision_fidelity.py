@@ -3,8 +3,9 @@
 Over poses across the full range (each hand channel swept alone, then random poses of all of them; coupled
 joints follow their polynomial), every pair of bodies whose collision geoms touch in the MJCF is compared
 with the vendor's visual meshes of the same two links, placed by the same body poses: a pair whose collision
-geometry touches while the vendor parts stay more than GAP apart is a modelling error (it stops a finger
-where the real hand moves freely). Pairs with a body the vendor does not describe (the arm) are not judged.
+geometry penetrates more than DEPTH while the vendor parts stay more than GAP apart is a modelling error (it
+stops a finger where the real hand moves freely). Pairs with a body the vendor does not describe (the arm) are
+not judged.
 """
 
 from __future__ import annotations
@@ -22,9 +23,11 @@ from .vendor_geometry import REFINE_BELOW, vendor_links
 
 SWEEP_STEPS = 11  # poses per channel swept alone, ends included
 RANDOM_POSES = 1000
-# Collision geoms count as touching at any depth: the thumb-blocking bracket pair of issue 15 was only
-# 0.28 mm deep, so a depth tolerance would let exactly that fault through. The vendor gap carries the slack.
-DEPTH = 0.0  # m
+# The rule of issue 15: a pair is listed when its collision geoms penetrate MORE than DEPTH while the vendor parts
+# stay more than GAP apart. A shallower touch is not judged here, yet it can still block a finger (the thumb-
+# blocking bracket pair of issue 15 was only 0.28 mm deep): range_of_motion is the guard against those, since it
+# drives every channel end to end with contacts on and names the pair that stops it.
+DEPTH = 0.5e-3  # m
 GAP = 1e-3  # m between the vendor meshes
 CANDIDATES_PER_PAIR = 200  # touching poses judged per pair: the deepest half, the rest spread over the others
 
@@ -75,7 +78,7 @@ def place(model: Any, data: Any, base: np.ndarray, pose: dict[str, float], equal
 
 
 def touching_pairs(model: Any, data: Any) -> dict[tuple[int, int], float]:
-    """(body, body) -> deepest penetration (m, >= 0) over their contacts; the world (a floor) left out."""
+    """(body, body) -> deepest penetration (m, >= DEPTH) over their contacts; the world (a floor) left out."""
     pairs: dict[tuple[int, int], float] = {}
     for contact in data.contact[: data.ncon]:
         b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
@@ -96,7 +99,7 @@ def _frame(data: Any, body: int) -> np.ndarray:
 def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     import mujoco
 
-    bound = f"0 pairs touching while the vendor meshes are > {GAP * 1e3:g} mm apart"
+    bound = f"0 pairs > {DEPTH * 1e3:g} mm deep while the vendor meshes are > {GAP * 1e3:g} mm apart"
     if pair.model is None:
         return [not_run("collision_fidelity", "the MJCF does not compile", bound)]
     model = pair.model
@@ -129,7 +132,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     findings = []
     for (b1, b2), hits in sorted(candidates.items()):
         hits.sort(reverse=True)
-        # Deepest poses first, spread over the rest: a pair is judged on its worst case and a fair sample.
+        # Deepest poses first (all deeper than DEPTH), spread over the rest: judged on its worst case and a fair sample.
         half = CANDIDATES_PER_PAIR // 2
         picked = hits[:half] + hits[half :: max(1, (len(hits) - half) // half)]
         a, b = (b1, b2) if len(vendor[suffix[b1]].points) <= len(vendor[suffix[b2]].points) else (b2, b1)
@@ -171,6 +174,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
                 "unjudged_pairs": sorted(list(p) for p in unjudged),
                 "vendor_meshes": str(folder),
                 "gap_m": GAP,
+                "depth_m": DEPTH,
             },
         )
     ]
