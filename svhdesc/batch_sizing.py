@@ -56,37 +56,73 @@ def collision_pairs(model: Any) -> np.ndarray:
     return np.array(pairs, dtype=int).reshape(-1, 2)
 
 
-def broadphase_candidates(model: Any, xpos: np.ndarray, xmat: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+def body_radius(model: Any) -> np.ndarray:
+    """Per body, a sphere about its frame origin holding every bounding sphere of its geoms (planes left out)."""
+    reach = np.linalg.norm(model.geom_pos, axis=1) + model.geom_rbound
+    radius = np.zeros(model.nbody)
+    np.maximum.at(radius, model.geom_bodyid, np.where(model.geom_rbound > 0, reach, 0.0))
+    return radius
+
+
+def broadphase_candidates(
+    model: Any, xpos: np.ndarray, xmat: np.ndarray, body_xpos: np.ndarray, pairs: np.ndarray
+) -> np.ndarray:
     """Per state, the pairs that pass Warp's default broadphase: bounding spheres overlap, then oriented bounding
     boxes overlap along the six face normals (mj_collideOBB); a plane and a bounding sphere that reaches it.
 
-    ``xpos`` (T x ngeom x 3) and ``xmat`` (T x ngeom x 9) are T states' geom_xpos and geom_xmat; one count each.
+    ``xpos`` (T x ngeom x 3), ``xmat`` (T x ngeom x 9) and ``body_xpos`` (T x nbody x 3) are T states' geom_xpos,
+    geom_xmat and xpos; one count each. Body spheres holding their geoms' spheres only pick the pairs worth the
+    exact tests: a pair they leave out cannot pass them.
     """
     g1, g2 = pairs[:, 0], pairs[:, 1]
     r1, r2 = model.geom_rbound[g1], model.geom_rbound[g2]
     margin = model.geom_margin[g1] + model.geom_margin[g2] + model.geom_gap[g1] + model.geom_gap[g2]
-    offset = xpos[:, g2] - xpos[:, g1]
     reach = r1 + r2 + margin
     # A plane (bounding radius 0) against a geom whose bounding sphere reaches it; the plane's normal is local z.
     rows = np.flatnonzero((r1 == 0) | (r2 == 0))
-    off, normal1, normal2 = offset[:, rows], xmat[:, g1[rows]][..., 2::3], xmat[:, g2[rows]][..., 2::3]
+    off, normal1, normal2 = (
+        xpos[:, g2[rows]] - xpos[:, g1[rows]],
+        xmat[:, g1[rows]][..., 2::3],
+        xmat[:, g2[rows]][..., 2::3],
+    )
     above1 = (off * normal1).sum(axis=2) <= r2[rows] + margin[rows]
     above2 = (-off * normal2).sum(axis=2) <= r1[rows] + margin[rows]
     hits = (np.where(r1[rows] == 0, above1, False) | np.where(r2[rows] == 0, above2, False)).sum(axis=1)
-    spheres = (offset * offset).sum(axis=2) <= reach * reach
-    step, near = np.nonzero(spheres & (r1 > 0) & (r2 > 0))
-    boxes = _boxes_overlap(model, xpos[step], xmat[step], g1[near], g2[near], margin[near])
+    solid = np.flatnonzero((r1 > 0) & (r2 > 0))
+    b1, b2 = model.geom_bodyid[g1[solid]], model.geom_bodyid[g2[solid]]
+    body_pairs, index = np.unique(b1 * model.nbody + b2, return_inverse=True)
+    first, second = np.divmod(body_pairs, model.nbody)
+    radius = body_radius(model)
+    slack = radius[first] + radius[second] + margin.max(initial=0.0) + 1e-9  # 1e-9 m: rounding, never a miss
+    apart = body_xpos[:, second] - body_xpos[:, first]
+    step, row = np.nonzero(((apart * apart).sum(axis=2) <= slack * slack)[:, index])
+    pair = solid[row]
+    offset = xpos[step, g2[pair]] - xpos[step, g1[pair]]
+    keep = (offset * offset).sum(axis=1) <= reach[pair] * reach[pair]
+    step, pair = step[keep], pair[keep]
+    boxes = _boxes_overlap(
+        model,
+        (xpos[step, g1[pair]], xmat[step, g1[pair]]),
+        (xpos[step, g2[pair]], xmat[step, g2[pair]]),
+        g1[pair],
+        g2[pair],
+        margin[pair],
+    )
     return hits + np.bincount(step[boxes], minlength=len(hits))
 
 
 def _boxes_overlap(
-    model: Any, xpos: np.ndarray, xmat: np.ndarray, g1: np.ndarray, g2: np.ndarray, margin: np.ndarray
+    model: Any,
+    frame1: tuple[np.ndarray, np.ndarray],
+    frame2: tuple[np.ndarray, np.ndarray],
+    g1: np.ndarray,
+    g2: np.ndarray,
+    margin: np.ndarray,
 ) -> np.ndarray:
     """Per row, whether oriented bounding boxes (geom_aabb in each geom frame) overlap along the six face normals;
-    row n pairs geoms g1[n] and g2[n] in the state xpos[n], xmat[n]."""
-    rows = np.arange(len(g1))
-    pos1, pos2 = xpos[rows, g1], xpos[rows, g2]
-    mat1, mat2 = xmat[rows, g1].reshape(-1, 3, 3), xmat[rows, g2].reshape(-1, 3, 3)
+    row n pairs geoms g1[n] and g2[n], placed at frame1[n] and frame2[n] (xpos, xmat)."""
+    pos1, pos2 = frame1[0], frame2[0]
+    mat1, mat2 = frame1[1].reshape(-1, 3, 3), frame2[1].reshape(-1, 3, 3)
     aabb1, aabb2 = model.geom_aabb[g1].reshape(-1, 2, 3), model.geom_aabb[g2].reshape(-1, 2, 3)
     centre1 = np.einsum("nij,nj->ni", mat1, aabb1[:, 0]) + pos1
     centre2 = np.einsum("nij,nj->ni", mat2, aabb2[:, 0]) + pos2
@@ -113,6 +149,7 @@ def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, asset
     pairs = collision_pairs(model)
     worst_ncon = worst_nefc = worst_candidates = 0
     xpos, xmat = np.empty((steps, model.ngeom, 3)), np.empty((steps, model.ngeom, 9))
+    body_xpos = np.empty((steps, model.nbody, 3))
     for target in _targets(model):
         if home >= 0:
             mujoco.mj_resetDataKeyframe(model, data, home)
@@ -123,9 +160,10 @@ def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, asset
             mujoco.mj_step(model, data)
             worst_ncon = max(worst_ncon, int(data.ncon))
             worst_nefc = max(worst_nefc, int(data.nefc))
-            xpos[step], xmat[step] = data.geom_xpos, data.geom_xmat
+            xpos[step], xmat[step], body_xpos[step] = data.geom_xpos, data.geom_xmat, data.xpos
         # The broadphase of the whole rollout at once, in chunks that keep the arrays small.
         for first in range(0, steps, CHUNK):
-            counts = broadphase_candidates(model, xpos[first : first + CHUNK], xmat[first : first + CHUNK], pairs)
+            chunk = slice(first, first + CHUNK)
+            counts = broadphase_candidates(model, xpos[chunk], xmat[chunk], body_xpos[chunk], pairs)
             worst_candidates = max(worst_candidates, int(counts.max(initial=0)))
     return Capacities.from_worst_case(worst_ncon, worst_candidates, worst_nefc)

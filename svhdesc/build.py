@@ -19,6 +19,7 @@ from .finite import check_finite
 from .freshness import portable, sha256, svhdesc_version, tool_versions
 from .ir import Robot
 from .outdir import output_directory, publish
+from .paths import models_dir
 from .pipeline import Source, compile_variant, decomposition_plan, read_source
 from .ros_outputs import EXECUTABLE, ros_outputs
 from .timings import Timings
@@ -91,7 +92,10 @@ def _prepare(
     """Read every variant, then run all the decompositions they need at once (in parallel)."""
     sources = [(v, read_source(v, extra_packages, timings)) for v in config.select(names)]
     _check_mass_names(config, sources, extra_packages, timings)
-    hulls.seed_from_outputs([out / v.name for v, _ in sources])
+    # Hulls are keyed by content (mesh, parameters, CoACD version), so the shipped models' committed hulls serve any
+    # build, into any --out; the out's own come last and win.
+    shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent != out)
+    hulls.seed_from_outputs([*shipped, *(out / v.name for v, _ in sources)])
     with timings.stage("decompose"):
         hulls.prefetch([job for v, s in sources for job in decomposition_plan(v, s)])
     return sources

@@ -1,6 +1,7 @@
 """Session-wide test settings and shared fixtures.
 
-- The Warp kernel cache and the hull cache of this run (shared by pytest-xdist's workers, never the user's).
+- The Warp kernel cache; the run's folder with its hull cache (never the user's) and its one session build, shared
+  by pytest-xdist's workers.
 - The `ros` and `slow` markers: `pytest -m "not slow"` is the quick set for development; the README's command and
   CI run everything, spread over one worker per CPU (pytest-xdist, `-n auto` in pyproject.toml).
 - `vendor_build`: the upstream descriptions (config/vendor.yaml) built once per worker; its users share an xdist
@@ -20,20 +21,23 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 # MuJoCo Warp compiles its kernels once into the repo's ignored .cache/ (inherited by CLI subprocesses too).
 os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
-# One decomposition cache for the whole run: xdist's workers inherit it from the controller, which loads this first.
-OWN_CACHE = "SVHDESC_CACHE" not in os.environ
-if OWN_CACHE:
-    os.environ["SVHDESC_CACHE"] = tempfile.mkdtemp(prefix="svhdesc-test-hulls-")
+# One folder for the whole run, made by the controller (or the only process) and inherited by xdist's workers: the
+# decomposition cache (never the user's) and the session build (tests/support.py built()).
+OWN_RUN = "SVHDESC_TEST_RUN" not in os.environ
+if OWN_RUN:
+    os.environ["SVHDESC_TEST_RUN"] = tempfile.mkdtemp(prefix="svhdesc-test-run-")
+    os.environ.setdefault("SVHDESC_CACHE", str(Path(os.environ["SVHDESC_TEST_RUN"]) / "hulls"))
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    if OWN_RUN and not hasattr(config, "workerinput"):  # the controller (or a run without xdist) made it
+        shutil.rmtree(os.environ["SVHDESC_TEST_RUN"], ignore_errors=True)
+
 
 # Modules that start a ROS master (in a private network namespace, on 127.0.0.1).
 ROS_MODULES = {"test_consumers", "test_pick_and_place", "test_plan_ros", "test_ros", "test_ros_robustness"}
 # Modules whose tests take tens of seconds each (engines, grasps held for seconds, Warp, vendor decompositions).
 SLOW_MODULES = {"test_batch", "test_grasps", "test_fidelity", "test_compare", "test_plan", "test_wireloop"}
-
-
-def pytest_unconfigure(config: pytest.Config) -> None:
-    if OWN_CACHE and not hasattr(config, "workerinput"):  # the controller (or a run without xdist) made it
-        shutil.rmtree(os.environ["SVHDESC_CACHE"], ignore_errors=True)
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

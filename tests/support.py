@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import functools
 import os
 import subprocess
@@ -33,10 +34,16 @@ def run_cli(*args: str, cwd: Path = REPO, env: dict[str, str] | None = None) -> 
 
 @functools.cache
 def built() -> Path:
-    """A fresh build of every variant (not the committed one), shared by the whole session."""
-    out = Path(tempfile.mkdtemp(prefix="svhdesc-test-build-"))
-    result = run_cli("build", "--out", str(out))
-    assert result.returncode == 0, result.stderr
+    """A fresh build of every variant (not the committed one), shared by the whole run: the first xdist worker to
+    ask builds it under the run's folder (tests/conftest.py), the others wait for it and read it."""
+    run = Path(os.environ.get("SVHDESC_TEST_RUN") or tempfile.mkdtemp(prefix="svhdesc-test-run-"))
+    out, done = run / "build", run / "build.done"
+    with open(run / "build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            result = run_cli("build", "--out", str(out))
+            assert result.returncode == 0, result.stderr
+            done.touch()
     return out
 
 

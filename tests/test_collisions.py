@@ -102,6 +102,17 @@ def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
     assert decomposition_counts(cli(*args, "--rebuild-collisions", cache=tmp_path / "c").stderr) == (1, 0, 0)
 
 
+def hull_caps(variant: str) -> dict[str, int]:
+    """Link -> max_convex_hull of its decomposition, as the config resolves it (classes, then per-link overrides)."""
+    from svhdesc.config import load_config
+    from svhdesc.pipeline import decomposition_plan, read_source
+    from svhdesc.timings import Timings
+
+    selected = load_config(REPO / "config" / "svhdesc.yaml").select([variant])[0]
+    jobs = decomposition_plan(selected, read_source(selected, {}, Timings()))
+    return {link: params.max_convex_hull for link, _, params in jobs}
+
+
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None:
     mjcf = etree.parse(str(GENERATED / variant / f"{variant}.xml"))
@@ -114,10 +125,9 @@ def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None
         assert mesh.is_convex and mesh.is_watertight, geom.get("mesh")
         assert len(mesh.vertices) <= 64
         per_body[body] = per_body.get(body, 0) + 1
+    caps_per_link = hull_caps(variant)
     for body, count in per_body.items():
-        short = body.split("_hand_")[-1]
-        cap = caps["palm"] if short in {"base_link", "e1", "e2"} else caps["arm"] if "_hand_" not in body else 4
-        assert count <= cap, body
+        assert count <= caps_per_link.get(body, 1), body  # a link the config does not decompose has one hull
     assert max(per_body.values()) > 1  # really decomposed, not one hull each
 
 
