@@ -3,7 +3,7 @@
 - The Warp kernel cache; the run's folder with its hull cache (never the user's) and its one session build, shared
   by pytest-xdist's workers.
 - The `ros` and `slow` markers: `pytest -m "not slow"` is the quick set for development; the README's command and
-  CI run everything, spread over one worker per CPU (pytest-xdist, `-n auto` in pyproject.toml).
+  CI run everything in one process (`-n auto --dist loadgroup` spreads a run over pytest-xdist workers).
 - `vendor_build`: the upstream descriptions (config/vendor.yaml) built once per worker; its users share an xdist
   group so that one worker builds it.
 """
