@@ -6,7 +6,7 @@ The worlds of tests/test_batch.py's equivalence test (16, random servo targets, 
 world of the batch scene until its first contact, then both engines compute the contacts of that same state,
 once with the batch model as built (multiccd off) and once with multiccd on (MuJoCo C 4.0's default). Prints
 per world and setting the contact counts and the angle between the two engines' first contact normals. This
-is why the batch model turns multiccd off (see svhdesc/export/batch.py). Not a test: a diagnosis.
+is why the batch model turns multiccd off (see svhdesc/compiler/export/batch.py). Not a test: a diagnosis.
 """
 
 from __future__ import annotations

@@ -98,7 +98,7 @@ def send_goals(variant: str, info: object, test: dict[str, float], msgs: object,
     import actionlib  # type: ignore[import-not-found]
     from trajectory_msgs.msg import JointTrajectoryPoint  # type: ignore[import-not-found]
 
-    from svhdesc.interfaces import ARM_CONTROLLER, hand_controller
+    from svhdesc.model import ARM_CONTROLLER, hand_controller
 
     groups = [(hand_controller(info.hand_prefix), info.hand_channels)]
     if info.arm_joints:

@@ -27,7 +27,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from svhdesc.objects import Obstacle, load_obstacles  # noqa: E402
+from svhdesc.sim.objects import Obstacle, load_obstacles
 from svhdesc.plan import Planner  # noqa: E402
 from svhdesc.plan.execute import current_positions, execute, ros_node  # noqa: E402
 
@@ -174,7 +174,7 @@ def render_moments(moments: list[dict[str, Any]], out: Path) -> list[Path]:
     import mujoco
 
     import svhdesc
-    from svhdesc.objects import add_objects
+    from svhdesc.sim.objects import add_objects
     from svhdesc.validate.render import render
 
     model_dir = svhdesc.get(VARIANT).directory

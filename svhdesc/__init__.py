@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from .paths import generated_dir
+from svhdesc.paths import generated_dir
 
 __all__ = [
     "Model",
@@ -66,7 +66,7 @@ class Model:
     @property
     def package_name(self) -> str:
         """The ROS package this folder is (put its parent on ROS_PACKAGE_PATH)."""
-        from .packages import package_name_of
+        from svhdesc.compiler.source.packages import package_name_of
 
         return package_name_of(self.directory) or self.name
 
@@ -79,7 +79,7 @@ class Model:
             raise ValueError(f"uris must be 'package', 'file' or 'path', not {uris!r}")
         from lxml import etree
 
-        from .packages import local_mesh_path
+        from svhdesc.compiler.source.packages import local_mesh_path
 
         tree = etree.fromstring(text.encode())
         for compiler in tree.iterfind("mujoco/compiler[@meshdir]"):  # MuJoCo's importer, from anywhere too
@@ -123,7 +123,7 @@ _LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "loa
 def __getattr__(attr: str) -> Any:
     # Loaders and module constants resolved lazily: importing svhdesc touches no files and no engine.
     if attr in _LOADERS:
-        from . import loaders
+        from svhdesc import loaders
 
         return getattr(loaders, attr)
     constants = {"URDF_PATH": "urdf_path", "MJCF_PATH": "mjcf_path", "SCENE_PATH": "scene_path"}

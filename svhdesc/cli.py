@@ -15,9 +15,9 @@ from typing import Any
 
 import click
 
-from .errors import SvhdescError
-from .extras import COMMAND_EXTRA, is_optional, missing_message, require_extra
-from .paths import default_config, default_out, models_dir
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import COMMAND_EXTRA, is_optional, missing_message, require_extra
+from svhdesc.paths import default_config, default_out, models_dir
 
 
 def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -111,8 +111,8 @@ def _config_exists(config_path: Path | None) -> None:
 
 
 def _load(config_path: Path | None, packages: tuple[str, ...]) -> tuple[Any, dict[str, Path]]:
-    from .config import load_config
-    from .packages import package_map, parse_package_option
+    from svhdesc.compiler.settings.config import load_config
+    from svhdesc.compiler.source.packages import package_map, parse_package_option
 
     _config_exists(config_path)
     config = load_config(config_path or default_config())
@@ -154,7 +154,7 @@ def build_command(
     force: bool,
 ) -> None:
     """Build VARIANTS (all by default) into OUT/<variant>/."""
-    from .freshness import stale_variants
+    from svhdesc.compiler.build.freshness import stale_variants
 
     if jobs < 0:
         raise SvhdescError(f"--jobs must be >= 0 (0: one per CPU), got {jobs}")
@@ -170,10 +170,10 @@ def build_command(
         return
 
     require_extra("build", "'svhdesc build'")
-    from . import build as builder
-    from .decompose import HullCache
-    from .hull_source import HullSource, default_cache_dir
-    from .timings import Timings
+    from svhdesc.compiler.build import builder as builder
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
 
     # The progress bar shows only on a terminal (HullSource checks); CI logs stay quiet.
     hulls = HullSource(HullCache(default_cache_dir()), jobs=jobs, force=rebuild_collisions, progress=True)
@@ -218,10 +218,10 @@ def list_command(config_path: Path | None) -> None:
 @_friendly
 def info_command(variant: str, config_path: Path | None, packages: tuple[str, ...]) -> None:
     """DoF, actuators, masses and the coupling matrix S_m of VARIANT."""
-    from .coupling import coupling_matrix
-    from .decompose import HullCache
-    from .hull_source import HullSource, default_cache_dir
-    from .pipeline import compile_variant
+    from svhdesc.compiler.build.pipeline import compile_variant
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.settings.coupling import coupling_matrix
 
     config, package_dirs = _load(config_path, packages)
     selected = config.select([variant])[0]
@@ -346,12 +346,12 @@ def validate_command(
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
     require_extra("validate", "'svhdesc validate'")
-    from .validate import Options, built_variants, select_checks, validate_files
-    from .validate.report import render_report, write_json
+    from svhdesc.validate import Options, built_variants, select_checks, validate_files
+    from svhdesc.validate.report import render_report, write_json
 
     selected = select_checks(checks)
     if config_path is not None:  # an explicit config must be good, not silently skipped
-        from .config import load_config
+        from svhdesc.compiler.settings.config import load_config
 
         _config_exists(config_path)
         load_config(config_path)
@@ -399,7 +399,7 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
     OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa. With --grasp, the hand closes that
     grasp (config 'grasps') on its object, as validate's grasps check does, and is drawn holding it.
     """
-    from .validate.render import parse_size, render
+    from svhdesc.validate.render import parse_size, render
 
     dimensions = parse_size(size)
     target = Path(variant)
@@ -408,7 +408,7 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
         if not target.is_dir():
             raise SvhdescError(f"variant '{variant}' is not built: {target} does not exist")
     if grasp is not None:
-        from .validate.grasps import render_grasp
+        from svhdesc.validate.grasps import render_grasp
 
         render_grasp(target, grasp, out_file, dimensions)
         click.echo(f"wrote {out_file} ({dimensions[0]}x{dimensions[1]}, grasp {grasp})")
@@ -434,8 +434,8 @@ def wireloop_group() -> None:
 @_friendly
 def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) -> None:
     """Train on a wire; write q_table.json, summary.json and distance.png into OUT."""
-    from .extras import require
-    from .wireloop.commands import train_to
+    from svhdesc.extras import require
+    from svhdesc.wireloop.commands import train_to
 
     require("matplotlib", "'svhdesc wireloop train'")
 
@@ -455,11 +455,11 @@ def wireloop_train(path: str, seed: int, episodes: int, cycles: int, out: Path) 
 @_friendly
 def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
     """Run a learned policy greedily along a wire; print the time per action, draw the loop's path."""
-    from .extras import require
-    from .wireloop.commands import solve
+    from svhdesc.extras import require
+    from svhdesc.wireloop.commands import solve
 
     require("matplotlib", "'svhdesc wireloop solve'")
-    from .wireloop.plots import plot_run
+    from svhdesc.wireloop.plots import plot_run
 
     result = solve(policy, path)
     run = result.run
@@ -484,8 +484,8 @@ def wireloop_solve(policy: Path, path: str, out: Path | None) -> None:
 @_friendly
 def wireloop_mujoco(policy: Path, path: str, out: Path, actions: int | None, no_picture: bool) -> None:
     """Execute the greedy plan with the UR5 + SVH in MuJoCo; write mujoco.json and mujoco.png into OUT."""
-    from .extras import require
-    from .wireloop.commands import run_mujoco
+    from svhdesc.extras import require
+    from svhdesc.wireloop.commands import run_mujoco
 
     require("mujoco", "'svhdesc wireloop mujoco'", "sim")
 
@@ -559,10 +559,9 @@ def compare_command(
     table like thesis Tables 5.1/5.2. A missing engine is reported, not fatal.
     """
     import svhdesc
-
-    from .compare.experiment import Conditions
-    from .compare.runner import ENGINES, inertia_label, run_grid
-    from .extras import require
+    from svhdesc.compare.experiment import Conditions
+    from svhdesc.compare.runner import ENGINES, inertia_label, run_grid
+    from svhdesc.extras import require
 
     # MuJoCo places the surface for every engine; matplotlib draws the plots. Both before any run.
     require("mujoco", "'svhdesc compare'", "sim")
@@ -587,7 +586,7 @@ def compare_command(
             raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
         settings.append(value)
 
-    from .compare.report import markdown, plot, plot_overview, write_csv, write_json
+    from svhdesc.compare.report import markdown, plot, plot_overview, write_csv, write_json
 
     def progress(result: Any) -> None:
         extra = f" ({result.note})" if result.note else ""
@@ -653,17 +652,17 @@ def sim_command(
     stray = [a for a in ros_args if ":=" not in a]
     if stray:
         raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
-    from .objects import load_obstacles
+    from svhdesc.sim.objects import load_obstacles
 
     objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros:
-        from .ros.node import run_node
+        from svhdesc.ros.node import run_node
 
         run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return
     if ros_args:
         raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
-    from .sim.cli_run import run_plain
+    from svhdesc.sim.cli_run import run_plain
 
     run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo, objects)
 
@@ -698,8 +697,8 @@ def plan_command(
     import json
 
     require_extra("plan", "'svhdesc plan'")
-    from .objects import load_obstacles
-    from .plan import PLANNERS, Planner, seed_ompl
+    from svhdesc.plan import PLANNERS, Planner, seed_ompl
+    from svhdesc.sim.objects import load_obstacles
 
     if (goal is None) == (pose is None):
         raise SvhdescError("give exactly one of --to STATE and --pose X Y Z ROLL PITCH YAW")
@@ -715,7 +714,7 @@ def plan_command(
     result = engine.plan(group, start, goal=goal, pose=pose, planner=planner, timeout=timeout)
     document = result.as_json()
     if result.success and execute:
-        from .plan.execute import execute as run
+        from svhdesc.plan.execute import execute as run
 
         document["execution"] = run(result, engine.config).as_json()
     if json_path is not None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from .errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 # Top-level module -> (pip distribution, extra that installs it).
 EXTRA_OF: dict[str, tuple[str, str]] = {

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from . import exact
-from .ir import Pose
+from svhdesc.compiler import exact
+from svhdesc.ir import Pose
 
 
 def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 SHIPPED_SOURCE = PACKAGE_DIR / "source"

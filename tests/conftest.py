@@ -35,9 +35,9 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 
 # Modules that start a ROS master (in a private network namespace, on 127.0.0.1).
-ROS_MODULES = {"test_consumers", "test_pick_and_place", "test_plan_ros", "test_ros", "test_ros_robustness"}
+ROS_MODULES = {"test_consumers", "test_pick_and_place", "test_plan_ros", "test_node", "test_robustness"}
 # Modules whose tests take tens of seconds each (engines, grasps held for seconds, Warp, vendor decompositions).
-SLOW_MODULES = {"test_batch", "test_grasps", "test_fidelity", "test_compare", "test_plan", "test_wireloop"}
+SLOW_MODULES = {"test_env", "test_grasps", "test_fidelity", "test_compare", "test_plan", "test_wireloop"}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

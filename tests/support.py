@@ -10,9 +10,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from svhdesc.config import load_config
+from svhdesc.compiler.settings.config import load_config
 
-REPO = Path(__file__).resolve().parents[1]
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
 SHARED = REPO.parent / "shared"
 VENDOR_SVH = SHARED / "vendor" / "schunk_svh_driver"
 VENDOR_UR = SHARED / "vendor" / "ur_description"

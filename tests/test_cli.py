@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from .support import REPO, built, run_cli
+from tests.support import REPO, built, run_cli
 
 CONFIG = REPO / "config" / "svhdesc.yaml"
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from .support import REPO
+from tests.support import REPO
 
 # Run the CLI with one optional module made unimportable, as on a machine without that extra.
 BLOCKED_CLI = "import sys; sys.modules[{module!r}] = None; from svhdesc.cli import main; main()"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from .support import REPO
+from tests.support import REPO
 
 HOLD = (
     "import fcntl, sys, time\n"

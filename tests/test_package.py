@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from .support import REPO, VARIANTS
+from tests.support import REPO, VARIANTS
 
 
 def test_import_does_not_load_mujoco() -> None:

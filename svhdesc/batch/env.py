@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SvhdescError
-from ..extras import require
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
 
 # Overflow bits that mean Warp dropped something (contacts, constraint rows, candidates). ITERATIONS and
 # LS_ITERATIONS only say the solver stopped at its iteration limit, as MuJoCo C does without a word.

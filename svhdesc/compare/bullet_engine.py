@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .engine import Engine, RunConfig
+from svhdesc.compare.engine import Engine, RunConfig
 
 POSITION_GAIN = 0.1  # pybullet's defaults for POSITION_CONTROL
 VELOCITY_GAIN = 1.0
@@ -29,7 +29,7 @@ class BulletEngine(Engine):
     def load(self, config: RunConfig) -> None:
         import pybullet as p
 
-        from ..loaders import load_pybullet
+        from svhdesc.loaders import load_pybullet
 
         self.p = p
         self.client = p.connect(p.DIRECT)

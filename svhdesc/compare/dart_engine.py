@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .engine import Engine, RunConfig
+from svhdesc.compare.engine import Engine, RunConfig
 
 
 class DartEngine(Engine):
@@ -27,7 +27,7 @@ class DartEngine(Engine):
     def load(self, config: RunConfig) -> None:
         import dartpy as dart
 
-        from ..loaders import load_dart
+        from svhdesc.loaders import load_dart
 
         setup = config.setup
         # DART's own MIMIC actuators (what its URDF loader makes of <mimic>): the loader's two-way

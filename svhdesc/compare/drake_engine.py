@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from .engine import Engine, RunConfig
-from .experiment import SURFACE
+from svhdesc.compare.engine import Engine, RunConfig
+from svhdesc.compare.experiment import SURFACE
 
 HOOK = "before_finalize"  # load_drake's callback for geometry that must exist before Finalize()
 
@@ -30,7 +30,7 @@ class DrakeEngine(Engine):
         from pydrake.multibody.tree import RotationalInertia, SpatialInertia
         from pydrake.systems.analysis import Simulator
 
-        from ..loaders import load_drake
+        from svhdesc.loaders import load_drake
 
         if HOOK not in inspect.signature(load_drake).parameters:
             raise RuntimeError(f"svhdesc.loaders.load_drake has no {HOOK}= hook to add the surface with")

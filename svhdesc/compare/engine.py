@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .experiment import Setup
+from svhdesc.compare.experiment import Setup
 
 TIMESTEP = 0.001  # s, the thesis' and the generated MJCF's step; every engine is asked for it
 

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from . import experiment
-from .engine import Engine, RunConfig, Servo
+from svhdesc.compare import experiment
+from svhdesc.compare.engine import Engine, RunConfig, Servo
 
 
 def _spec(

@@ -40,9 +40,9 @@ from typing import Any
 
 import numpy as np
 
-from . import libode
-from .engine import Engine, EngineMissing, RunConfig
-from .urdf_tree import Joint, Link, axis_rotation, load_obj, lumped_inertial, read_urdf, tree
+from svhdesc.compare import libode
+from svhdesc.compare.engine import Engine, EngineMissing, RunConfig
+from svhdesc.compare.urdf_tree import Joint, Link, axis_rotation, load_obj, lumped_inertial, read_urdf, tree
 
 DIST_PACKAGES = "/usr/lib/python3/dist-packages"  # Debian's python3-pyode, outside the venv
 # Gazebo Classic's ODE defaults, as sdformat 1.6 declares them (physics.sdf: <max_contacts>, <ode><solver>,

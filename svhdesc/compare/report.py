@@ -8,8 +8,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .experiment import Conditions, Setup, moving_mean, window_span
-from .runner import FORCE_WINDOW, STATUS_MISSING, STATUS_OK, TIP_TOLERANCE, Result
+from svhdesc.compare.experiment import Conditions, Setup, moving_mean, window_span
+from svhdesc.compare.runner import FORCE_WINDOW, STATUS_MISSING, STATUS_OK, TIP_TOLERANCE, Result
 
 
 def _short(joint: str) -> str:

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from . import experiment
-from .engine import TIMESTEP, Engine, EngineMissing, RunConfig
+from svhdesc.compare import experiment
+from svhdesc.compare.engine import TIMESTEP, Engine, EngineMissing, RunConfig
 
 ENGINES: dict[str, str] = {
     "mujoco": "svhdesc.compare.mujoco_engine:MujocoEngine",
@@ -216,8 +216,7 @@ def run_grid(
 ) -> tuple[experiment.Setup, list[Result]]:
     """Every engine x inertia; ``progress(result)`` is called after each run."""
     import svhdesc
-
-    from .mujoco_engine import finger_links, hand_links, servo
+    from svhdesc.compare.mujoco_engine import finger_links, hand_links, servo
 
     conditions = conditions or experiment.Conditions()
     mjcf = svhdesc.get(variant).mjcf_path

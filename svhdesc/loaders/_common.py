@@ -8,8 +8,8 @@ from types import ModuleType
 
 from lxml import etree
 
-from .. import get
-from ..extras import require as _require
+from svhdesc import get
+from svhdesc.extras import require as _require
 
 
 def require(module: str, loader: str) -> ModuleType:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ._common import absolute_urdf, couplings, require
+from svhdesc.loaders._common import absolute_urdf, couplings, require
 
 
 def load_dart(name: str = "ur5_svh_right", coupler: bool = False) -> Any:

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ._common import absolute_urdf, contact_excludes, require
+from svhdesc.loaders._common import absolute_urdf, contact_excludes, require
 
 
 @dataclass

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ._common import absolute_urdf, require
+from svhdesc.loaders._common import absolute_urdf, require
 
 
 def load_pinocchio(name: str = "ur5_svh_right", mimic: bool = True) -> Any:

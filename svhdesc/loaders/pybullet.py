@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ._common import absolute_urdf, couplings, require
+from svhdesc.loaders._common import absolute_urdf, couplings, require
 
 GEAR_ERP = 0.8  # fraction of the position error corrected per step: no drift, no overshoot
 GEAR_MAX_FORCE = 100.0  # N m: far above the finger drives (1-2 N m), so the gear never slips

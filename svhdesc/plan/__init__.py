@@ -16,12 +16,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import svhdesc
-
-from ..errors import SvhdescError
-from ..objects import Obstacle
-from .config import MoveItConfig, load_config
-from .planner import PLANNERS, Plan, plan_motion, seed_ompl
-from .scene import CollisionScene
+from svhdesc.errors import SvhdescError
+from svhdesc.plan.config import MoveItConfig, load_config
+from svhdesc.plan.planner import PLANNERS, Plan, plan_motion, seed_ompl
+from svhdesc.plan.scene import CollisionScene
+from svhdesc.sim.objects import Obstacle
 
 __all__ = ["Planner", "Plan", "Obstacle", "PLANNERS", "seed_ompl", "MoveItConfig"]
 
@@ -70,7 +69,7 @@ class Planner:
 
     def kinematics(self) -> object:
         if self._kinematics is None:
-            from .ik import Kinematics
+            from svhdesc.plan.ik import Kinematics
 
             self._kinematics = Kinematics(self.variant, self.config)
         return self._kinematics

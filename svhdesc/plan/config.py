@@ -12,7 +12,7 @@ from pathlib import Path
 import yaml
 from lxml import etree
 
-from ..errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 # MoveIt's time parameterization uses 1 rad/s^2 where joint_limits.yaml gives no acceleration limit.
 MOVEIT_DEFAULT_ACCELERATION = 1.0

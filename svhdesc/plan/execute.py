@@ -9,9 +9,9 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import SvhdescError
-from .config import MoveItConfig
-from .planner import Plan
+from svhdesc.errors import SvhdescError
+from svhdesc.plan.config import MoveItConfig
+from svhdesc.plan.planner import Plan
 
 START_TOLERANCE = 0.01  # rad: MoveIt refuses to execute when the robot is elsewhere (allowed_start_tolerance)
 
@@ -34,7 +34,7 @@ class Execution:
 
 def ros_node() -> Any:
     """rospy, with this process registered as a node (once)."""
-    from ..ros.system import import_ros
+    from svhdesc.ros.system import import_ros
 
     rospy = import_ros()
     import rosgraph
@@ -60,7 +60,7 @@ def execute(plan: Plan, config: MoveItConfig, timeout: float = 120.0) -> Executi
     rospy = ros_node()
     import actionlib
 
-    from ..ros.messages import control_msgs
+    from svhdesc.ros.messages import control_msgs
 
     msgs = control_msgs()
     chosen = [c for c in config.controllers if set(c.joints) & set(plan.joint_names)]

@@ -10,11 +10,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 import svhdesc
-
-from ..errors import SvhdescError
-from ..extras import require
-from .config import MoveItConfig
-from .scene import CollisionScene
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+from svhdesc.plan.config import MoveItConfig
+from svhdesc.plan.scene import CollisionScene
 
 
 def pose_matrix(pose: Sequence[float]) -> np.ndarray:

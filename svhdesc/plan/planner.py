@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SvhdescError
-from ..extras import require
-from .config import MoveItConfig
-from .scene import CollisionScene
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+from svhdesc.plan.config import MoveItConfig
+from svhdesc.plan.scene import CollisionScene
 
 PLANNERS = ("RRTConnect", "RRT", "RRTstar", "PRM", "PRMstar", "KPIECE1", "BKPIECE1", "LBKPIECE1", "BITstar")
 CHECK_STEP = 0.01  # rad: the longest joint-space step between two collision checks along a motion

@@ -14,11 +14,10 @@ from dataclasses import replace
 import numpy as np
 
 import svhdesc
-
-from ..errors import SvhdescError
-from ..extras import require
-from ..objects import Obstacle, add_objects
-from .config import MoveItConfig
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+from svhdesc.plan.config import MoveItConfig
+from svhdesc.sim.objects import Obstacle, add_objects
 
 # Pairs that touch in the state a query starts from (by up to 0.5 mm: measured states, e.g. fingers resting on
 # each other in a grasp) may go on touching that much; everything else must stay clear. MoveIt's

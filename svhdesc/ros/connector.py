@@ -17,7 +17,7 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 FIELDS = ("name", "control_topic", "pose_topic", "initpose_topic", "p_gain", "d_gain")
 

@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SvhdescError
-from ..interfaces import ACTION
-from ..sim import Point, Simulation
-from ..sim.trajectory import Trajectory
-from . import goals as codes
-from .goals import Tolerances, check_goal
+from svhdesc.errors import SvhdescError
+from svhdesc.model import ACTION
+from svhdesc.ros import goals as codes
+from svhdesc.ros.goals import Tolerances, check_goal
+from svhdesc.sim import Point, Simulation
+from svhdesc.sim.trajectory import Trajectory
 
 
 @dataclass

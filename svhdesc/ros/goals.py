@@ -13,7 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from ..sim.trajectory import Point, validate_points
+from svhdesc.sim.trajectory import Point, validate_points
 
 SUCCESSFUL = 0
 INVALID_GOAL = -1

@@ -14,7 +14,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from .controller import on_sim_thread
+from svhdesc.ros.controller import on_sim_thread
 
 BASE_CLASS = "controller_interface::ControllerBase"
 BEST_EFFORT, STRICT = 1, 2
@@ -34,7 +34,7 @@ class ControllerManager:
     def __init__(self, controllers: list[Loaded], queue: deque) -> None:
         import rospy
 
-        from .messages import controller_manager_msgs
+        from svhdesc.ros.messages import controller_manager_msgs
 
         self._rospy = rospy
         self._msgs = controller_manager_msgs()

@@ -15,7 +15,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from .system import import_ros
+from svhdesc.ros.system import import_ros
 
 PACKAGE = "control_msgs"
 DEFINITIONS = Path(__file__).resolve().parent / "definitions"

@@ -31,8 +31,8 @@ from typing import Any
 
 from lxml import etree
 
-from ..errors import SvhdescError
-from ..interfaces import (
+from svhdesc.errors import SvhdescError
+from svhdesc.model import (
     ACTION_MONITOR_RATE,
     ARM_CONTROLLER,
     ARM_STOPPED_CONTROLLER,
@@ -45,11 +45,11 @@ from ..interfaces import (
     STATE_PUBLISH_RATE,
     hand_controller,
 )
-from ..sim import Simulation
-from .connector import ConnectorJoint, load_connector
-from .goals import Tolerances
-from .messages import control_msgs
-from .system import import_ros
+from svhdesc.ros.connector import ConnectorJoint, load_connector
+from svhdesc.ros.goals import Tolerances
+from svhdesc.ros.messages import control_msgs
+from svhdesc.ros.system import import_ros
+from svhdesc.sim import Simulation
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
@@ -155,10 +155,9 @@ class SimNode:
         from std_msgs.msg import Float64
 
         import svhdesc
-
-        from .controller import TrajectoryController
-        from .manager import ControllerManager, Loaded
-        from .velocity import VelocityGroupController
+        from svhdesc.ros.controller import TrajectoryController
+        from svhdesc.ros.manager import ControllerManager, Loaded
+        from svhdesc.ros.velocity import VelocityGroupController
 
         self._rospy = rospy
         self.sim = sim
@@ -343,7 +342,7 @@ def run_node(
     # rospy leaves sockets to the garbage collector at shutdown: not the user's concern.
     warnings.filterwarnings("ignore", category=ResourceWarning)
     rospy = import_ros()
-    from ..objects import add_objects
+    from svhdesc.sim.objects import add_objects
 
     sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
     for body in track:
@@ -356,7 +355,7 @@ def run_node(
         raise SvhdescError(f"no ROS master at {rosgraph.get_master_uri()}: start roscore (or use roslaunch)")
     window = None
     if viewer:
-        from ..sim.viewer import Viewer
+        from svhdesc.sim.viewer import Viewer
 
         window = Viewer(sim.model, sim.data)
     rospy.init_node(NODE_NAME, argv=["svhdesc", *ros_args], disable_signals=False)

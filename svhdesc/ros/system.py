@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from types import ModuleType
 
-from ..errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 DIST_PACKAGES = "/usr/lib/python3/dist-packages"
 # Debian 12 packages the node needs (ros-core brings roscore and roslaunch).

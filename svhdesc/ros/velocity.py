@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..sim import Simulation
+from svhdesc.sim import Simulation
 
 
 class VelocityGroupController:

@@ -1,9 +1,9 @@
 """Simulation runtime without ROS: a variant's scene, targets, JointTrajectoryController-style
 trajectories, joint states, fingertip force and body poses (through the public API only)."""
 
-from .robot import DRIVER_CHANNELS, Coupling, RobotInfo
-from .runtime import JointState, Simulation
-from .trajectory import Point, State, Trajectory
+from svhdesc.sim.robot import DRIVER_CHANNELS, Coupling, RobotInfo
+from svhdesc.sim.runtime import JointState, Simulation
+from svhdesc.sim.trajectory import Point, State, Trajectory
 
 __all__ = [
     "DRIVER_CHANNELS",

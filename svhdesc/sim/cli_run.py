@@ -6,7 +6,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from .runtime import Simulation
+from svhdesc.sim.runtime import Simulation
 
 
 def run_plain(
@@ -19,14 +19,14 @@ def run_plain(
     echo: Callable[[str], None],
     objects: Sequence[Any] = (),
 ) -> None:
-    from ..objects import add_objects
+    from svhdesc.sim.objects import add_objects
 
     sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
     for body in track:
         sim.body_pose(body)  # unknown bodies fail before the run
     window = None
     if viewer:
-        from .viewer import Viewer
+        from svhdesc.sim.viewer import Viewer
 
         window = Viewer(sim.model, sim.data)
     # Without a viewer a run must end by itself: one simulated second by default.

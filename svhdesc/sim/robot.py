@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..interfaces import DRIVER_CHANNELS
+from svhdesc.model import DRIVER_CHANNELS
 
 
 @dataclass(frozen=True)

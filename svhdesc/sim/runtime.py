@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SvhdescError
-from .robot import RobotInfo, describe
-from .trajectory import Point, State, Trajectory, validate_points
+from svhdesc.errors import SvhdescError
+from svhdesc.sim.robot import RobotInfo, describe
+from svhdesc.sim.trajectory import Point, State, Trajectory, validate_points
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import threading
 import time
 from typing import Any
 
-from ..errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 
 def has_display() -> bool:

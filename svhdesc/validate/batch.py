@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from ..export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE, TOLERANCE
-from ..extras import MissingExtra
-from .options import Options
-from .pair import ModelPair
-from .report import Check, not_run, summary, verdict
+from svhdesc.compiler.export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE, TOLERANCE
+from svhdesc.extras import MissingExtra
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, not_run, summary, verdict
 
 WARP_WORLDS = 4
 WARP_STEPS = 50
@@ -101,7 +101,7 @@ def compare_to_main(main: Any, batch: Any) -> list[str]:
 
 def warp_rollout(model: Any, worlds: int = WARP_WORLDS, steps: int = WARP_STEPS, seed: int = 0) -> dict[str, int]:
     """Step ``worlds`` worlds towards random targets on Warp's CPU device; raises BatchOverflow on a drop."""
-    from ..batch import BatchEnv
+    from svhdesc.batch import BatchEnv
 
     env = BatchEnv(model, worlds, "cpu")
     env.reset("home")

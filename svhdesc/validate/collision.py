@@ -6,9 +6,9 @@ stops them, so without it they overlap by design (the grasps check simulates the
 
 from __future__ import annotations
 
-from .options import Options
-from .pair import ModelPair
-from .report import Check, fmt, not_run, verdict
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 
 def check_self_collision(pair: ModelPair, options: Options) -> list[Check]:

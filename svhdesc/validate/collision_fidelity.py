@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from ..polynomial import polyval
-from .options import Options
-from .pair import ModelPair, actuated_joints, joint_equalities
-from .report import Check, not_run, verdict
-from .vendor_geometry import REFINE_BELOW, vendor_links
+from svhdesc.polynomial import polyval
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.report import Check, not_run, verdict
+from svhdesc.validate.vendor_geometry import REFINE_BELOW, vendor_links
 
 SWEEP_STEPS = 11  # poses per channel swept alone, ends included
 RANDOM_POSES = 1000

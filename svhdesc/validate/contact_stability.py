@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from ..compare import experiment as shared
-from ..compare.experiment import WINDOW, SetupError, mad
-from .options import Options
-from .pair import ModelPair, scalar_joints
-from .report import Check, fmt, not_run, table, verdict
+from svhdesc.compare import experiment as shared
+from svhdesc.compare.experiment import WINDOW, SetupError, mad
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, scalar_joints
+from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 MAD_BOUND = 1e-9  # rad
 FORCE_CV_BOUND = 0.02  # std / mean of the normal force
@@ -46,7 +46,7 @@ class Experiment:
 def run_experiment(pair: ModelPair) -> Experiment:
     import mujoco
 
-    from .simulate import warning_counts
+    from svhdesc.validate.simulate import warning_counts
 
     model = pair.model
     home, test = shared.keyframes(model)
@@ -174,7 +174,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         f"{run.setup['direction_from']}"
     )
     if options.plots is not None:
-        from .plots import plot_contact
+        from svhdesc.validate.plots import plot_contact
 
         run.setup["plots"] = [str(p) for p in plot_contact(run, pair.name, options.plots)]
     figures = {

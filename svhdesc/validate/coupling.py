@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..polynomial import image, linearise
-from .options import Options
-from .pair import ModelPair, actuated_joints, joint_equalities
-from .report import Check, fmt, not_run, verdict
+from svhdesc.polynomial import image, linearise
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 SPEC_TOL = 1e-9
 LIMIT_TOL = 1e-9

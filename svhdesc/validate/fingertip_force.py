@@ -15,10 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from .handsim import TIP_OF_CHANNEL, Hand, body_vertices, channel_jacobian, configured_channels, find_hand, set_channels
-from .options import Options
-from .pair import ModelPair
-from .report import Check, not_run, table, verdict
+from svhdesc.validate.handsim import (
+    TIP_OF_CHANNEL,
+    Hand,
+    body_vertices,
+    channel_jacobian,
+    configured_channels,
+    find_hand,
+    set_channels,
+)
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, not_run, table, verdict
 
 TOL = 0.20  # relative
 GAP = 0.001  # m between fingertip and plate at the start

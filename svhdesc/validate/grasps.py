@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SvhdescError
-from .handsim import FINGERS, Hand, find_hand, set_channels
-from .options import Options
-from .pair import ModelPair
-from .report import Check, not_run, table, verdict
+from svhdesc.errors import SvhdescError
+from svhdesc.validate.handsim import FINGERS, Hand, find_hand, set_channels
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, not_run, table, verdict
 
 SLIP = 0.005  # m
 TIP_GAP = 0.001  # m
@@ -276,7 +276,7 @@ def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
 
 def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size: tuple[int, int]) -> GraspResult:
     """Render the hand holding the object (before gravity turns) to ``out``, looking into the palm."""
-    from .render import render
+    from svhdesc.validate.render import render
 
     result = run_grasp(mjcf, name, grasp)
     if result.spec is None or result.state is None:
@@ -297,7 +297,7 @@ def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size:
 
 def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> GraspResult:
     """``svhdesc render --grasp``: the configured grasp ``name`` of a built variant (directory or MJCF)."""
-    from .pair import configured_variant
+    from svhdesc.validate.pair import configured_variant
 
     mjcf = target if target.is_file() else target / f"{target.name}.xml"
     variant = configured_variant(mjcf.stem, mjcf, None)

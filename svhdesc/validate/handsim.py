@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from ..coupling import load_spec
-from ..ir import Channel
-from .pair import ModelPair, joint_equalities
+from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.ir import Channel
+from svhdesc.validate.pair import ModelPair, joint_equalities
 
 # Distal link of each finger, by the channel that moves it (the vendor's link letters).
 TIP_OF_CHANNEL = {

@@ -8,10 +8,10 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from ..polynomial import polyval
-from .options import Options
-from .pair import ModelPair, actuated_joints, joint_equalities, scalar_joints
-from .report import Check, fmt, not_run, verdict
+from svhdesc.polynomial import polyval
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities, scalar_joints
+from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 POS_TOL = 1e-6  # m
 ROT_TOL = 1e-6  # rad

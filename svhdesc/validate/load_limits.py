@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .options import Options
-from .pair import ModelPair
-from .report import Check, fmt, not_run, verdict
-from .simulate import random_target_start
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, fmt, not_run, verdict
+from svhdesc.validate.simulate import random_target_start
 
 DURATION = 10.0  # s
 TARGET_PERIOD = 0.05  # s between new random targets

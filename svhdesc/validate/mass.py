@@ -7,9 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from .options import Options
-from .pair import ModelPair
-from .report import Check, fmt, not_run, summary, verdict
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, fmt, not_run, summary, verdict
 
 BUDGET_TOL = 1e-6  # relative: the build splits the budget exactly; this only absorbs summation order
 AGREE_TOL = 1e-9  # relative

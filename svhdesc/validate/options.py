@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .vendor_geometry import default_vendor_meshes
+from svhdesc.validate.vendor_geometry import default_vendor_meshes
 
 
 @dataclass(frozen=True)

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from .. import manifest as manifest_file
-from ..config import Variant, load_config
-from ..errors import SvhdescError
-from ..paths import default_config, source_root
+from svhdesc.compiler.build import manifest as manifest_file
+from svhdesc.compiler.settings.config import Variant, load_config
+from svhdesc.errors import SvhdescError
+from svhdesc.paths import default_config, source_root
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:

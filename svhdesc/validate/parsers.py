@@ -10,10 +10,10 @@ from pathlib import Path
 
 from lxml import etree
 
-from ..packages import local_mesh_path
-from .options import Options
-from .pair import ModelPair
-from .report import Check, not_run, verdict
+from svhdesc.compiler.source.packages import local_mesh_path
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair
+from svhdesc.validate.report import Check, not_run, verdict
 
 URDFDOM_INSTALL = "apt-get install liburdfdom-tools"
 # ignition-tools gives the `ign` front end; libsdformat-dev brings the `sdf` subcommand (sdformat12.yaml and

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .contact_stability import Experiment
+    from svhdesc.validate.contact_stability import Experiment
 
 
 def plot_contact(run: Experiment, name: str, directory: Path) -> list[Path]:

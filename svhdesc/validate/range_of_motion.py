@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 
-from ..polynomial import polyval
-from .collision_fidelity import hand_prefix
-from .options import Options
-from .pair import ModelPair, actuated_joints, joint_equalities
-from .report import Check, fmt, not_run, table, verdict
+from svhdesc.polynomial import polyval
+from svhdesc.validate.collision_fidelity import hand_prefix
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
 MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s)

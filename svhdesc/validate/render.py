@@ -18,8 +18,8 @@ import zlib
 from pathlib import Path
 from typing import Any
 
-from ..errors import SvhdescError
-from ..extras import require
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
 
 BACKENDS = ("egl", "osmesa")
 INSTALL = "apt-get install libegl1 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"

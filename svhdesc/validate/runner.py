@@ -7,25 +7,25 @@ import traceback
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import SvhdescError
-from .batch import check_batch
-from .collision import check_self_collision
-from .collision_fidelity import check_collision_fidelity
-from .contact_stability import check_contact_stability
-from .coupling import check_coupling_spec, check_limits
-from .fingertip_force import check_fingertip_force
-from .grasps import check_grasps
-from .kinematics import check_kinematics
-from .load_limits import check_load_limits
-from .mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
-from .options import Options
-from .pair import ModelPair, load_pair
-from .parsers import check_sdformat, check_urdfdom, check_yourdfpy
-from .range_of_motion import check_range_of_motion
-from .report import FAIL, Check, VariantReport
-from .semantics import check_semantics
-from .simulate import check_simulation
-from .transmissions import check_transmissions
+from svhdesc.errors import SvhdescError
+from svhdesc.validate.batch import check_batch
+from svhdesc.validate.collision import check_self_collision
+from svhdesc.validate.collision_fidelity import check_collision_fidelity
+from svhdesc.validate.contact_stability import check_contact_stability
+from svhdesc.validate.coupling import check_coupling_spec, check_limits
+from svhdesc.validate.fingertip_force import check_fingertip_force
+from svhdesc.validate.grasps import check_grasps
+from svhdesc.validate.kinematics import check_kinematics
+from svhdesc.validate.load_limits import check_load_limits
+from svhdesc.validate.mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, load_pair
+from svhdesc.validate.parsers import check_sdformat, check_urdfdom, check_yourdfpy
+from svhdesc.validate.range_of_motion import check_range_of_motion
+from svhdesc.validate.report import FAIL, Check, VariantReport
+from svhdesc.validate.semantics import check_semantics
+from svhdesc.validate.simulate import check_simulation
+from svhdesc.validate.transmissions import check_transmissions
 
 Stage = Callable[[ModelPair, Options], list[Check]]
 

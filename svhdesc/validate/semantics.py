@@ -12,9 +12,9 @@ from typing import Any
 
 from lxml import etree
 
-from .options import Options
-from .pair import ModelPair, joint_equalities
-from .report import Check, not_run, summary, verdict
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.report import Check, not_run, summary, verdict
 
 LIMIT_TOL = 1e-9
 

@@ -6,9 +6,9 @@ from typing import Any
 
 import numpy as np
 
-from .options import Options
-from .pair import ModelPair, joint_equalities
-from .report import FAIL, Check, fmt, not_run, verdict
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.report import FAIL, Check, fmt, not_run, verdict
 
 DURATION = 10.0  # s of simulated time
 TARGET_PERIOD = 0.05  # s between new random targets (the full ctrlrange: a hard test of the couplings)

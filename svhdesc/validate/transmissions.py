@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from .options import Options
-from .pair import ModelPair, actuated_joints
-from .report import Check, not_run, verdict
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, actuated_joints
+from svhdesc.validate.report import Check, not_run, verdict
 
 
 def check_transmissions(pair: ModelPair, options: Options) -> list[Check]:

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SvhdescError
-from ..paths import checkout_root, source_root
-from .pair import rpy_matrix
+from svhdesc.errors import SvhdescError
+from svhdesc.paths import checkout_root, source_root
+from svhdesc.validate.pair import rpy_matrix
 
 PACKAGE = "schunk_svh_driver"
 SPACING = 0.5e-3  # m between surface samples; distances are refined on the exact triangles below 3 mm
@@ -65,8 +65,8 @@ def vendor_links(folder: Path, side: str) -> dict[str, VendorLink]:
     import trimesh
     from scipy.spatial import cKDTree
 
-    from ..meshes import load_mesh
-    from ..xacro_expand import expand_xacro
+    from svhdesc.compiler.source.meshes import load_mesh
+    from svhdesc.compiler.source.xacro import expand_xacro
 
     entry = source_root() / "xacro" / "vendor" / "svh_hand.urdf.xacro"
     root, _ = expand_xacro(entry, {"side": side}, {PACKAGE: folder})

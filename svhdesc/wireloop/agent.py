@@ -11,7 +11,7 @@ import random
 import time
 from dataclasses import dataclass, field
 
-from .env import CCW, CW, HIT, OUT, Environment, Snapshot
+from svhdesc.wireloop.env import CCW, CW, HIT, OUT, Environment, Snapshot
 
 # Why an episode ended.
 HIT_WIRE, LEFT_AREA, LOST_OBJECTIVE = "hit_wire", "left_area", "lost_objective"

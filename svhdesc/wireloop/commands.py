@@ -7,11 +7,11 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from ..errors import SvhdescError
-from .agent import AgentConfig, Episode, greedy_run, train
-from .env import Environment
-from .policy import load_policy, save_policy
-from .wiremap import load_map
+from svhdesc.errors import SvhdescError
+from svhdesc.wireloop.agent import AgentConfig, Episode, greedy_run, train
+from svhdesc.wireloop.env import Environment
+from svhdesc.wireloop.policy import load_policy, save_policy
+from svhdesc.wireloop.wiremap import load_map
 
 POLICY_FILE, SUMMARY_FILE, CURVE_FILE = "q_table.json", "summary.json", "distance.png"
 
@@ -44,7 +44,7 @@ def train_to(out: Path, path: str, seed: int, episodes: int, cycles: int, plot: 
     save_policy(out / POLICY_FILE, result.q, env.config, meta)
     (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     if plot:
-        from .plots import plot_distances
+        from svhdesc.wireloop.plots import plot_distances
 
         title = f"{env.map.name}: seed {seed}, solved after {result.solved_cycle} cycles"
         plot_distances(result.distances, len(env.path_cells) - 1, out / CURVE_FILE, title)
@@ -87,7 +87,7 @@ def decision_time(env: Environment, q: dict[int, list[float]], repeats: int = 5,
 
 def run_mujoco(policy: Path, path: str, out: Path, actions: int | None, picture: bool = True) -> dict[str, object]:
     """Plan greedily with ``policy`` on ``path`` and execute the plan (or its first ``actions``) in MuJoCo."""
-    from .mujoco_run import execute, plan_targets, render, summary
+    from svhdesc.wireloop.mujoco_run import execute, plan_targets, render, summary
 
     q, config = load_policy(policy)
     env = Environment(load_map(path), config)

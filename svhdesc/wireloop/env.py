@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .wiremap import WireMap
+from svhdesc.wireloop.wiremap import WireMap
 
 ACTIONS = ("up", "down", "left", "right", "rotate_cw", "rotate_ccw")
 UP, DOWN, LEFT, RIGHT, CW, CCW = range(6)

@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SvhdescError
-from .env import CCW, CW, Environment
-from .wiremap import WireMap, load_map
+from svhdesc.errors import SvhdescError
+from svhdesc.wireloop.env import CCW, CW, Environment
+from svhdesc.wireloop.wiremap import WireMap, load_map
 
 VARIANT = "ur5_svh_right"
 PALM = "right_hand_e1"
@@ -348,7 +348,7 @@ def execute(
 
 def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] = (800, 600)) -> str:
     """Draw the robot in its final pose over the wire, with the ring centre's path, in a child process."""
-    from ..validate.render import _backend_env, backends_to_try
+    from svhdesc.validate.render import _backend_env, backends_to_try
 
     request = {
         "map": wire_map_file,
@@ -407,7 +407,7 @@ def _render_child() -> int:
         pixels = np.ascontiguousarray(renderer.render())
     finally:
         renderer.close()
-    from ..validate.render import _write_png
+    from svhdesc.validate.render import _write_png
 
     _write_png(Path(request["out"]), pixels)
     return 0

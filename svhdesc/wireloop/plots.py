@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .env import Environment, limit_offsets
+from svhdesc.wireloop.env import Environment, limit_offsets
 
 PNG_METADATA = {"Software": None}  # no version string: the same run gives the same bytes
 

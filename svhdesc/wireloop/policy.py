@@ -7,8 +7,8 @@ import math
 from dataclasses import asdict, fields
 from pathlib import Path
 
-from ..errors import SvhdescError
-from .env import ACTIONS, EnvConfig
+from svhdesc.errors import SvhdescError
+from svhdesc.wireloop.env import ACTIONS, EnvConfig
 
 FORMAT = "svhdesc-wireloop-q/1"
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from ..errors import SvhdescError
+from svhdesc.errors import SvhdescError
 
 FREE, WIRE, START, END = ".", "#", "S", "E"
 STEPS = ((-1, 0), (1, 0), (0, -1), (0, 1))  # up, down, left, right as (row, column)

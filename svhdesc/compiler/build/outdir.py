@@ -1,0 +1,144 @@
+"""The output directory: one build at a time, and each variant swapped in whole.
+
+At every instant ``OUT/<variant>`` is the complete old or the complete new output, even if the
+build is killed (SIGKILL included): a new variant directory is staged in ``OUT/.svhdesc-build-*``
+and exchanged with the old one by one ``renameat2(RENAME_EXCHANGE)``, an atomic kernel operation
+(Linux >= 3.15, ext4/xfs/btrfs/tmpfs). Where that call is missing the old directory is moved
+aside first and a killed build's next run moves it back. Variant directories stay plain
+directories, so git, ``pip wheel`` and ``build --check`` see ordinary files.
+
+Builds into one ``OUT`` serialise on an ``flock`` of the directory itself (no lock file in it);
+the next build under the lock removes whatever a killed one left in staging.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import fcntl
+import os
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from svhdesc.errors import SvhdescError
+
+STAGING_PREFIX = ".svhdesc-build-"
+RETIRED_PREFIX = ".old-"
+AT_FDCWD = -100
+RENAME_EXCHANGE = 2
+# Test hook: after the first variant has been swapped in, pause until this file exists (60 s at most),
+# so that a test can kill the build there, or hold its lock.
+PAUSE_ENV = "SVHDESC_TEST_PAUSE_IN_SWAP"
+
+
+def fs_error(path: Path, exc: OSError) -> SvhdescError:
+    """One line for a filesystem failure, naming the path."""
+    reason = exc.strerror or str(exc)
+    if exc.errno == errno.ENOSPC:
+        reason = "no space left on the device"
+    return SvhdescError(f"{exc.filename or path}: {reason}")
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically swap two paths; False if the kernel or filesystem cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    libc = ctypes.CDLL(None, use_errno=True)
+    renameat2 = getattr(libc, "renameat2", None)
+    if renameat2 is None:
+        return False
+    result = renameat2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE)
+    if result == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def swap_in(new: Path, target: Path) -> None:
+    """Make ``new`` the content of ``target``; the old content ends up at ``new`` (to delete)."""
+    if not target.exists():
+        os.rename(new, target)
+        return
+    if _exchange(new, target):
+        return
+    # Fallback: two renames; recover() undoes a kill between them.
+    retired = new.parent / f"{RETIRED_PREFIX}{target.name}"
+    os.rename(target, retired)
+    os.rename(new, target)
+    os.rename(retired, new)
+
+
+def recover(out: Path) -> None:
+    """Undo what a killed build left: put back a moved-aside variant, delete staging directories."""
+    for staging in sorted(out.glob(f"{STAGING_PREFIX}*")):
+        for retired in staging.glob(f"{RETIRED_PREFIX}*"):
+            target = out / retired.name.removeprefix(RETIRED_PREFIX)
+            if not target.exists():
+                os.rename(retired, target)
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextmanager
+def locked(out: Path) -> Iterator[None]:
+    """Hold ``out`` for one build; a second build into it waits (and says so)."""
+    fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"waiting for another build writing {out}", file=sys.stderr, flush=True)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def output_directory(out: Path) -> Iterator[Path]:
+    """``out`` created if needed and locked, leftovers recovered; yields a fresh staging directory.
+
+    If the build fails, the staging directory goes, and so does ``out`` if this build created it
+    and nothing else is in it.
+    """
+    if out.exists() and not out.is_dir():
+        raise SvhdescError(f"{out}: --out is not a directory")
+    # The directories this build creates (out and missing parents), removed again if it fails.
+    created = [d for d in (out, *out.parents) if not d.exists()]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise fs_error(out, exc) from None
+    staging = None
+    try:
+        with locked(out):
+            recover(out)
+            staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
+            yield staging
+    except OSError as exc:
+        raise fs_error(out, exc) from None
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+        for directory in created:
+            try:
+                directory.rmdir()  # only if empty: the build failed before swapping anything in
+            except OSError:
+                break
+
+
+def publish(staging: Path, out: Path, names: list[str]) -> None:
+    """Swap each staged variant into ``out``."""
+    for index, name in enumerate(names):
+        swap_in(staging / name, out / name)
+        if index == 0 and os.environ.get(PAUSE_ENV):
+            print(f"swapped {name}; pausing", file=sys.stderr, flush=True)
+            release, deadline = Path(os.environ[PAUSE_ENV]), time.monotonic() + 60
+            while not release.exists() and time.monotonic() < deadline:
+                time.sleep(0.05)

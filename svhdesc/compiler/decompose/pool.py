@@ -1,0 +1,139 @@
+"""Decompositions in parallel worker processes that die with the build."""
+
+from __future__ import annotations
+
+import concurrent.futures
+import multiprocessing
+import os
+import sys
+from collections import Counter
+
+import trimesh
+
+from svhdesc.compiler.decompose.cache import HullCache, _entry_meta
+from svhdesc.compiler.decompose.coacd_run import _decompose_stl
+from svhdesc.compiler.decompose.keys import _key_from_stl
+from svhdesc.compiler.decompose.params import DecompParams
+from svhdesc.compiler.source.meshes import mesh_from_stl, stl_bytes
+
+# --------------------------------------------------------------------------- parallel
+
+
+def _init_worker(parent: int = 0) -> None:
+    # One OpenMP thread per worker: the pool already fills the cores, and oversubscribing them
+    # only slows every job.  Works because the worker imports CoACD lazily, after this.
+    os.environ["OMP_NUM_THREADS"] = "1"
+    die_with_parent(parent)
+
+
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(parent: int) -> None:
+    """Linux: the kernel sends SIGKILL to this process when its parent dies (even by kill -9)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if parent and os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+class _Progress:
+    """A one-line progress bar on stderr (the caller decides whether stderr is a terminal)."""
+
+    def __init__(self, total: int, enabled: bool, width: int = 30) -> None:
+        self.total, self.enabled, self.width, self.done = total, enabled, width, 0
+
+    def step(self, label: str) -> None:
+        self.done += 1
+        if not self.enabled or self.total == 0:
+            return
+        filled = self.width * self.done // self.total
+        bar = "#" * filled + "-" * (self.width - filled)
+        sys.stderr.write(f"\rdecompose [{bar}] {self.done}/{self.total} {label[:40]:<40}")
+        if self.done == self.total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def parallel_decompose(
+    jobs: list[tuple[str, trimesh.Trimesh, DecompParams]],
+    cache: HullCache | None,
+    n_jobs: int,
+    force: bool = False,
+    progress: bool = False,
+    stats: Counter[str] | None = None,
+) -> dict[str, tuple[list[trimesh.Trimesh], bool]]:
+    """Decompose many meshes: hits come from the cache, misses run in ``n_jobs`` processes.
+
+    Returns ``{name: (hulls, cache_hit)}`` in job order.  Results do not depend on ``n_jobs``
+    (each is a function of its key alone); jobs with equal keys are decomposed once.
+    ``n_jobs <= 0`` means one process per CPU; 1 runs in this process without a pool.  Workers
+    are spawned, so a calling script needs the usual ``if __name__ == "__main__":`` guard.
+    ``stats`` (the caller's counter) gets ``decomposed`` += 1 for every CoACD run.
+    """
+    stats = stats if stats is not None else Counter()
+    names = [name for name, _, _ in jobs]
+    if len(set(names)) != len(names):
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"duplicate job names: {', '.join(dupes)}")
+
+    results: dict[str, tuple[list[trimesh.Trimesh], bool]] = {}
+    pending: dict[str, tuple[bytes, DecompParams, list[str]]] = {}  # key -> (stl, params, names)
+    bar = _Progress(len(jobs), progress)
+    for name, mesh, params in jobs:
+        stl = stl_bytes(mesh)
+        key = _key_from_stl(stl, params)
+        if key in pending:
+            pending[key][2].append(name)
+            continue
+        hit = None if cache is None or force else cache.meshes(key)
+        if hit is not None:
+            results[name] = (hit, True)
+            bar.step(f"{name} (cached)")
+        else:
+            pending[key] = (stl, params, [name])
+
+    def finish(key: str, blobs: list[bytes]) -> None:
+        _, params, job_names = pending[key]
+        if cache is not None:
+            cache.store(key, blobs, _entry_meta(params))
+        for job_name in job_names:
+            results[job_name] = ([mesh_from_stl(b) for b in blobs], False)
+            bar.step(job_name)
+
+    workers = n_jobs if n_jobs > 0 else (os.cpu_count() or 1)
+    workers = min(workers, len(pending))
+    if workers <= 1:
+        for key, (stl, params, job_names) in pending.items():
+            stats["decomposed"] += 1
+            finish(key, _run_job(job_names[0], stl, params))
+    elif pending:
+        # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
+        ctx = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+        ) as pool:
+            futures = {}
+            for key, (stl, params, job_names) in pending.items():
+                stats["decomposed"] += 1
+                futures[pool.submit(_run_job, job_names[0], stl, params)] = key
+            try:
+                for fut in concurrent.futures.as_completed(futures):
+                    finish(futures[fut], fut.result())
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                raise
+    return {name: results[name] for name in names}
+
+
+def _run_job(name: str, stl: bytes, params: DecompParams) -> list[bytes]:
+    try:
+        return _decompose_stl(stl, params)
+    except Exception as exc:
+        raise RuntimeError(f"convex decomposition of {name!r} failed: {exc}") from exc

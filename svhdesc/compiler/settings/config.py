@@ -1,0 +1,144 @@
+"""The build configuration: variants and the physics settings injected into them."""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from svhdesc.compiler.settings.schema import CONTACT_MODELS, Settings, mapping_of, normalise, text
+from svhdesc.compiler.settings.yamlio import Node, load_yaml, where
+from svhdesc.errors import SvhdescError
+
+# Every section a config may hold: the fields of the one schema (svhdesc.compiler.settings.schema).
+SECTIONS: tuple[str, ...] = tuple(f.name for f in fields(Settings) if not f.metadata.get("located"))
+VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
+__all__ = ["CONTACT_MODELS", "Config", "Variant", "load_config"]
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    xacro: Path
+    args: dict[str, str]
+    settings: dict[str, Any]  # merged defaults + overrides, checked, defaults filled (mappings, for the stages)
+    config_dir: Path
+    typed: Settings | None = field(default=None, compare=False)  # the same values, typed
+
+    @property
+    def sections(self) -> Settings:
+        """The typed settings (checked again from ``settings`` for a Variant built without them)."""
+        return self.typed if self.typed is not None else normalise(self.settings, str(self.config_dir))[0]
+
+    @property
+    def hand(self) -> dict[str, Any]:
+        return self.settings["hand"]
+
+    @property
+    def arm(self) -> dict[str, Any]:
+        return self.settings["arm"]
+
+    def path(self, key: str) -> Path:
+        return (self.config_dir / self.settings[key]).resolve()
+
+    def packages(self) -> dict[str, Path]:
+        return {name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()}
+
+
+@dataclass(frozen=True)
+class Config:
+    path: Path
+    variants: dict[str, Variant]
+    files: tuple[Path, ...] = ()  # this file and every file it extends: inputs of every variant
+
+    def select(self, names: list[str] | tuple[str, ...]) -> list[Variant]:
+        for name in names:
+            if name not in self.variants:
+                known = ", ".join(self.variants)
+                raise SvhdescError(f"unknown variant '{name}' (known: {known}; see {self.path})")
+        return [self.variants[n] for n in (names or self.variants)]
+
+
+def _merge(base: dict[str, Any], override: dict[str, Any]) -> Node:
+    """``override`` over ``base``, section by section; each key keeps the line it was written on."""
+    merged = Node(copy.deepcopy(dict(base)))
+    merged.where = getattr(override, "where", "") or getattr(base, "where", "")
+    merged.lines = {**getattr(base, "lines", {}), **getattr(override, "lines", {})}
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict) and key not in {"keyframes", "grasps", "args"}:
+            merged[key] = _merge(merged[key], value)
+        else:
+            merged[key] = copy.deepcopy(value)
+    return merged
+
+
+def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = None) -> dict[str, Any]:
+    """The config's mapping with ``extends: BASE`` resolved (the base's variants are not inherited)."""
+    data = load_yaml(path)
+    if files is not None:
+        files.append(path.resolve())
+    if not isinstance(data, dict):
+        raise SvhdescError(f"{path}: config must be a mapping")
+    at = where(data, str(path), "extends")
+    base_name = data.pop("extends", None)
+    # Checked here: these paths are resolved against this file before any merge.
+    if "coupling" in data:
+        data["coupling"] = text(data["coupling"], f"{where(data, str(path), 'coupling')}: coupling")
+    if "packages" in data:
+        data["packages"] = mapping_of(text)(data["packages"], f"{where(data, str(path), 'packages')}: packages")
+    if base_name is None:
+        return data
+    if not isinstance(base_name, str) or not base_name:
+        raise SvhdescError(f"{at}: 'extends' must be a file name, got {base_name!r}")
+    base_path = (path.parent / base_name).resolve()
+    if base_path in chain:
+        raise SvhdescError(f"{at}: 'extends' loops back to {base_path}")
+    if not base_path.is_file():
+        raise SvhdescError(f"{at}: 'extends': no such file {base_path}")
+    base = _read(base_path, (*chain, path.resolve()), files)
+    base.pop("variants", None)
+    # Paths in the base stay relative to the base file.
+    for key in ("coupling",):
+        if key in base:
+            base[key] = str((base_path.parent / base[key]).resolve())
+    if "packages" in base:
+        packages = base["packages"]
+        base["packages"] = Node({k: str((base_path.parent / v).resolve()) for k, v in packages.items()})
+        base["packages"].lines = dict(packages.lines)
+    return _merge(base, data)
+
+
+def load_config(path: Path) -> Config:
+    path = Path(path)
+    files: list[Path] = []
+    data = _read(path, files=files)
+    unknown = [key for key in data if key not in SECTIONS and key != "variants"]
+    if unknown:
+        at = where(data, str(path), unknown[0])
+        raise SvhdescError(f"{at}: unknown top-level key(s) {sorted(map(str, unknown))}")
+    if not isinstance(data.get("variants"), dict) or not data["variants"]:
+        raise SvhdescError(f"{where(data, str(path), 'variants')}: config needs a non-empty 'variants' mapping")
+    defaults = Node({key: value for key, value in data.items() if key != "variants"})
+    defaults.where, defaults.lines = where(data, str(path)), dict(getattr(data, "lines", {}))
+    variants = {}
+    for name, entry in data["variants"].items():
+        at = where(entry, where(data["variants"], str(path), name))
+        if not isinstance(entry, dict) or "xacro" not in entry:
+            raise SvhdescError(f"{at}: variant {name} needs an 'xacro' entry point")
+        bad = [key for key in entry if key not in VARIANT_KEYS]
+        if bad:
+            raise SvhdescError(f"{where(entry, at, bad[0])}: variant {name}: unknown key(s) {sorted(map(str, bad))}")
+        overrides = Node({k: v for k, v in entry.items() if k not in {"xacro", "args"}})
+        overrides.where, overrides.lines = at, dict(getattr(entry, "lines", {}))
+        typed, settings = normalise(_merge(defaults, overrides), at)
+        xacro = entry["xacro"]
+        if not isinstance(xacro, str) or not xacro:
+            raise SvhdescError(f"{where(entry, at, 'xacro')}: variant {name}: 'xacro' must be a file name")
+        args = entry.get("args") or {}
+        if not isinstance(args, dict) or any(isinstance(v, (dict, list)) for v in args.values()):
+            raise SvhdescError(f"{where(entry, at, 'args')}: variant {name}: 'args' must map names to values")
+        xacro_path = (path.parent / xacro).resolve()
+        args = {str(k): str(v) for k, v in args.items()}
+        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve(), typed)
+    return Config(path, variants, tuple(files))

@@ -1,0 +1,198 @@
+"""The joint-coupling spec: load, check against a robot, and derive every coupled number."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from svhdesc.compiler.settings.schema import number, numbers, text
+from svhdesc.compiler.settings.yamlio import load_yaml, where
+from svhdesc.errors import SvhdescError
+from svhdesc.ir import Channel, Coupling, Mimic, Robot
+from svhdesc.polynomial import image, linearise, polyval
+
+MAX_ORDER = 4
+LIMIT_TOL = 1e-9
+
+
+__all__ = ["CouplingSpec", "CouplingWarning", "apply_spec", "image", "linearise", "load_spec", "polyval", "propagate"]
+
+
+class CouplingWarning(UserWarning):
+    """A coupled number had to be approximated or a limit widened."""
+
+
+@dataclass(frozen=True)
+class CouplingSpec:
+    path: Path
+    channels: tuple[Channel, ...]  # joint = unprefixed channel name
+    couplings: tuple[Coupling, ...]  # joint/channel unprefixed
+    lines: dict[str, str]  # unprefixed joint or channel -> file:line
+
+
+def load_spec(path: Path) -> CouplingSpec:
+    data = load_yaml(path)
+    if not isinstance(data, dict) or not isinstance(data.get("channels"), list):
+        raise SvhdescError(f"{where(data, str(path))}: coupling spec needs a 'channels' list")
+    unknown = [str(k) for k in data if k not in {"channels", "couplings"}]
+    if unknown:
+        raise SvhdescError(
+            f"{where(data, str(path), unknown[0])}: unknown key(s) {sorted(unknown)} in the coupling spec"
+        )
+    couplings_data = data.get("couplings")
+    if couplings_data is not None and not isinstance(couplings_data, list):
+        raise SvhdescError(f"{where(data, str(path), 'couplings')}: 'couplings' must be a list")
+    channels, couplings, lines = [], [], {}
+    for item in data["channels"]:
+        at = where(item, where(data, str(path), "channels"))
+        if not isinstance(item, dict) or "name" not in item:
+            raise SvhdescError(f"{at}: channel needs a name")
+        unknown = set(item) - {"name", "range", "effort", "velocity", "tip_force"}
+        if unknown:
+            raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(map(str, unknown))}")
+        name = text(item["name"], f"{at}: channel name")
+        if name in lines:
+            raise SvhdescError(f"{at}: channel {name} declared twice (first at {lines[name]})")
+        missing = [key for key in ("range", "effort", "velocity") if key not in item]
+        if missing:
+            raise SvhdescError(f"{at}: channel {name} needs {', '.join(missing)}")
+        lower, upper = numbers((2,))(item["range"], f"{where(item, at, 'range')}: channel {name}: range")
+        if not lower < upper:
+            raise SvhdescError(f"{where(item, at, 'range')}: channel {name}: empty range [{lower}, {upper}]")
+        effort = number(0.0, 1e4, strict=True)(item["effort"], f"{where(item, at, 'effort')}: channel {name}: effort")
+        velocity = number(0.0, 1e4, strict=True)(
+            item["velocity"], f"{where(item, at, 'velocity')}: channel {name}: velocity"
+        )
+        tip_force = None
+        if item.get("tip_force") is not None:
+            tip_force = number(0.0, 1e4, strict=True)(
+                item["tip_force"], f"{where(item, at, 'tip_force')}: channel {name}: tip_force"
+            )
+        channels.append(Channel(name, name, lower, upper, effort, velocity, tip_force))
+        lines[name] = at
+    channel_names = {c.name for c in channels}
+    for item in couplings_data or []:
+        at = where(item, where(data, str(path), "couplings"))
+        if not isinstance(item, dict) or not {"joint", "follows", "poly"} <= set(item):
+            raise SvhdescError(f"{at}: coupling needs joint, follows and poly")
+        unknown = set(item) - {"joint", "follows", "poly"}
+        if unknown:
+            raise SvhdescError(f"{at}: coupling: unknown key(s) {sorted(map(str, unknown))}")
+        joint = text(item["joint"], f"{at}: coupled joint name")
+        leader = text(item["follows"], f"{at}: coupled joint {joint}: follows")
+        coeffs = tuple(numbers()(item["poly"], f"{where(item, at, 'poly')}: coupled joint {joint}: poly"))
+        if not 1 <= len(coeffs) <= MAX_ORDER + 1:
+            raise SvhdescError(f"{at}: coupled joint {joint}: poly has {len(coeffs)} terms (1 to 5 allowed)")
+        if joint in channel_names:
+            raise SvhdescError(f"{at}: joint {joint} is a channel and cannot also follow {leader}: driven twice")
+        if joint in lines:
+            first = next(c for c in couplings if c.joint == joint)
+            problem = "duplicated" if first.channel == leader else f"driven twice (also by {first.channel})"
+            raise SvhdescError(f"{at}: coupled joint {joint} {problem} (first at {lines[joint]})")
+        couplings.append(Coupling(joint, leader, coeffs))
+        lines[joint] = at
+    _check_graph(couplings, channel_names, lines)
+    return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str, str]) -> None:
+    follows = {c.joint: c.channel for c in couplings}
+    for coupling in couplings:
+        if coupling.channel in channels:
+            continue
+        if coupling.channel not in follows:
+            raise SvhdescError(
+                f"{lines[coupling.joint]}: coupled joint {coupling.joint} follows unknown channel {coupling.channel}"
+            )
+        # Walk the chain to tell a cycle from a plain chain.
+        seen, node = [coupling.joint], coupling.channel
+        while node in follows and node not in seen:
+            seen.append(node)
+            node = follows[node]
+        kind = "a cycle" if node in seen else "a chain"
+        path = " -> ".join([*seen, node])
+        raise SvhdescError(
+            f"{lines[coupling.joint]}: coupled joint {coupling.joint} is in {kind} of couplings ({path}); "
+            "every coupled joint must follow a channel directly"
+        )
+
+
+def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str, *, widen_limits: bool = False) -> Robot:
+    """Prefix the spec's names, check it against the robot, and set every coupled joint's mimic."""
+    joints = {j.name: j for j in robot.joints}
+
+    def full(name: str) -> str:
+        return f"{prefix}_{name}" if prefix else name
+
+    channels = []
+    for channel in spec.channels:
+        joint = joints.get(full(channel.name))
+        if joint is None or not joint.movable:
+            raise SvhdescError(f"{spec.lines[channel.name]}: unknown joint {full(channel.name)} (channel)")
+        if channel.lower < joint.lower - LIMIT_TOL or channel.upper > joint.upper + LIMIT_TOL:
+            raise SvhdescError(
+                f"{spec.lines[channel.name]}: channel {channel.name} range [{channel.lower}, {channel.upper}] "
+                f"leaves the limit [{joint.lower}, {joint.upper}] of joint {joint.name} ({joint.source})"
+            )
+        channels.append(replace(channel, joint=joint.name))
+    by_channel = {c.name: c for c in channels}
+    couplings, updated = [], dict(joints)
+    for coupling in spec.couplings:
+        at = spec.lines[coupling.joint]
+        joint = joints.get(full(coupling.joint))
+        if joint is None or not joint.movable:
+            raise SvhdescError(f"{at}: unknown joint {full(coupling.joint)} (coupled joint)")
+        channel = by_channel[coupling.channel]
+        low, high = image(coupling.coeffs, channel.lower, channel.upper)
+        if low < joint.lower - LIMIT_TOL or high > joint.upper + LIMIT_TOL:
+            message = (
+                f"coupled joint {joint.name}: image [{low:.9g}, {high:.9g}] of channel {channel.name} "
+                f"range [{channel.lower}, {channel.upper}] leaves its limit [{joint.lower}, {joint.upper}]"
+            )
+            if not widen_limits:
+                raise SvhdescError(f"{at}: {message} ({joint.source})")
+            warnings.warn(f"{message}; limit widened", CouplingWarning, stacklevel=2)
+            joint = replace(joint, lower=min(joint.lower, low), upper=max(joint.upper, high))
+        if any(c != 0.0 for c in coupling.coeffs[2:]):
+            offset, multiplier = linearise(coupling.coeffs, channel.lower, channel.upper)
+            warnings.warn(
+                f"{at}: coupled joint {joint.name}: URDF <mimic> is linear; using the least-squares line "
+                f"offset={offset:.6g} multiplier={multiplier:.6g} over [{channel.lower}, {channel.upper}]",
+                CouplingWarning,
+                stacklevel=2,
+            )
+        updated[joint.name] = replace(joint, mimic=Mimic(channel.joint, coupling.coeffs))
+        couplings.append(replace(coupling, joint=joint.name, channel=channel.name))
+    return replace(
+        robot,
+        joints=tuple(updated[j.name] for j in robot.joints),
+        channels=tuple(channels),
+        couplings=tuple(couplings),
+    )
+
+
+def propagate(robot: Robot, positions: dict[str, float]) -> dict[str, float]:
+    """Positions of every movable joint: channels as given (default 0), coupled joints from the spec."""
+    result = {j.name: positions.get(j.name, 0.0) for j in robot.joints if j.movable}
+    for joint in robot.joints:
+        if joint.mimic is not None:
+            result[joint.name] = float(polyval(joint.mimic.coeffs, result[joint.mimic.joint]))
+    return result
+
+
+def coupling_matrix(robot: Robot) -> tuple[list[str], list[str], np.ndarray]:
+    """S_m (joints x channels): d joint / d channel at the origin (the linear term)."""
+    hand = [j for j in robot.joints if j.movable and (j.mimic or j.name in {c.joint for c in robot.channels})]
+    rows = [j.name for j in hand]
+    cols = [c.joint for c in robot.channels]
+    matrix = np.zeros((len(rows), len(cols)))
+    for r, joint in enumerate(hand):
+        if joint.mimic is None:
+            matrix[r, cols.index(joint.name)] = 1.0
+        else:
+            coeffs = joint.mimic.coeffs
+            matrix[r, cols.index(joint.mimic.joint)] = coeffs[1] if len(coeffs) > 1 else 0.0
+    return rows, cols, matrix

@@ -1,0 +1,253 @@
+"""Expanded URDF (lxml tree) -> IR ``Robot``."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from svhdesc.compiler import exact
+from svhdesc.compiler.source.packages import resolve_uri
+from svhdesc.errors import SvhdescError
+from svhdesc.frames import rpy_matrix
+from svhdesc.ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
+
+LARGEST = 1e9  # larger than any length, mass, limit or effort of a robot; small enough to compute with
+
+
+def _floats(text: str | None, n: int, default: tuple[float, ...], where: str) -> tuple[float, ...]:
+    if text is None:
+        return default
+    try:
+        values = tuple(float(v) for v in text.split())
+    except ValueError:
+        raise SvhdescError(f"{where}: not a number list: {text!r}") from None
+    if len(values) != n:
+        raise SvhdescError(f"{where}: expected {n} numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in values):
+        raise SvhdescError(f"{where}: non-finite number in {text!r}")
+    if any(abs(v) > LARGEST for v in values):
+        raise SvhdescError(f"{where}: implausibly large number in {text!r} (beyond +-{LARGEST:g})")
+    return values
+
+
+def _number(element: etree._Element | None, key: str, default: float | None, where: str) -> float:
+    """A finite number attribute; ``default`` None: required."""
+    text = element.get(key) if element is not None else None
+    if text is None:
+        if default is None:
+            tag = element.tag if element is not None else "element"
+            raise SvhdescError(f"{where}: <{tag}> needs a '{key}' attribute")
+        return default
+    return _floats(text, 1, (), f"{where}: {key}")[0]
+
+
+def _positive(values: tuple[float, ...], where: str) -> tuple[float, ...]:
+    if not all(v > 0 for v in values):
+        raise SvhdescError(f"{where}: sizes must be > 0, got {values}")
+    return values
+
+
+def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nth: int = 1) -> str:
+    """``file:line`` of the element ``<tag name=...>`` that expanded to ``name`` (xacro keeps no lines).
+
+    Tries the literal name, then a macro-built one ending in the same suffix (``${prefix}_j3``), then a
+    macro call passing that suffix (``<xacro:svh_fixed name="f2"``). ``nth``: the nth such element
+    (the second of a duplicate), else the last one found.
+    """
+    if name:
+        tails = [name] + [name[i + 1 :] for i in range(1, len(name)) if name[i] == "_"]
+        patterns = (
+            [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')]
+            + [re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}_?{re.escape(tail)}"') for tail in tails[1:]]
+            + [re.compile(rf'<xacro:\w+\b[^>]*\bname="{re.escape(tail)}"') for tail in tails[1:]]
+        )
+        texts = []
+        for file in files:
+            try:
+                texts.append((file, file.read_text(encoding="utf-8", errors="replace").splitlines()))
+            except OSError:
+                continue
+        for pattern in patterns:
+            found = [
+                f"{file}:{number}"
+                for file, lines in texts
+                for number, line in enumerate(lines, start=1)
+                if pattern.search(line)
+            ]
+            if found:
+                return found[min(nth, len(found)) - 1]
+    return str(fallback)
+
+
+def _pose(element: etree._Element | None, where: str) -> Pose:
+    if element is None:
+        return Pose()
+    return Pose(
+        _floats(element.get("xyz"), 3, (0.0, 0.0, 0.0), where),  # type: ignore[arg-type]
+        _floats(element.get("rpy"), 3, (0.0, 0.0, 0.0), where),  # type: ignore[arg-type]
+    )
+
+
+def _materials(root: etree._Element, files: Sequence[Path], source: Path) -> dict[str, tuple[float, ...]]:
+    colours = {}
+    for material in root.findall("material"):
+        colour = material.find("color")
+        name = material.get("name")
+        if colour is not None and name:
+            where = f"{locate(files, 'material', name, source)}: material {name}"
+            colours[name] = _floats(colour.get("rgba"), 4, (0.5, 0.5, 0.5, 1.0), where)
+    return colours
+
+
+def _geometry(
+    element: etree._Element,
+    link: str,
+    materials: dict,
+    packages: Mapping[str, Path],
+    source: Path,
+    where: str,
+) -> Geometry:
+    origin = _pose(element.find("origin"), where)
+    shape = element.find("geometry")
+    if shape is None or len(shape) == 0:
+        raise SvhdescError(f"{where}: {element.tag} without geometry")
+    kind = shape[0].tag
+    rgba = None
+    material = element.find("material")
+    if material is not None:
+        colour = material.find("color")
+        if colour is not None:
+            rgba = _floats(colour.get("rgba"), 4, (0.5, 0.5, 0.5, 1.0), where)
+        else:
+            rgba = materials.get(material.get("name", ""))
+    if kind == "mesh":
+        uri = shape[0].get("filename")
+        if not uri:
+            raise SvhdescError(f"{where}: <mesh> needs a 'filename'")
+        path = resolve_uri(uri, packages, where)
+        if not path.is_absolute():
+            path = source.parent / path
+        if not path.is_file():
+            raise SvhdescError(f"{where}: mesh not found: {uri} ({path})")
+        scale: Vec3 = _floats(shape[0].get("scale"), 3, (1.0, 1.0, 1.0), where)  # type: ignore[assignment]
+        return Geometry("mesh", origin, mesh=str(path.resolve()), scale=scale, rgba=rgba)
+    if kind == "box":
+        if shape[0].get("size") is None:
+            raise SvhdescError(f"{where}: <box> needs a 'size'")
+        return Geometry("box", origin, _positive(_floats(shape[0].get("size"), 3, (), where), where), rgba=rgba)
+    if kind == "cylinder":
+        size = (_number(shape[0], "radius", None, where), _number(shape[0], "length", None, where))
+        return Geometry("cylinder", origin, _positive(size, where), rgba=rgba)
+    if kind == "sphere":
+        return Geometry("sphere", origin, _positive((_number(shape[0], "radius", None, where),), where), rgba=rgba)
+    raise SvhdescError(f"{where}: unsupported geometry <{kind}>")
+
+
+def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
+    if element is None:
+        return None
+    origin = _pose(element.find("origin"), where)
+    if element.find("mass") is None or element.find("inertia") is None:
+        raise SvhdescError(f"{where}: <inertial> needs <mass> and <inertia>")
+    mass = _number(element.find("mass"), "value", None, where)
+    inertia = element.find("inertia")
+    ixx, ixy, ixz, iyy, iyz, izz = (_number(inertia, k, 0.0, where) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+    tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    if any(origin.rpy):  # the IR keeps tensors in the link frame
+        rotation = rpy_matrix(origin.rpy)
+        tensor = exact.matmul(exact.matmul(rotation, tensor), rotation.T)
+    values = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
+    return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
+
+
+def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, files: Sequence[Path] = ()) -> Robot:
+    """Read links and joints; mimic tags in the source are dropped (the coupling spec decides).
+
+    ``files`` (the xacro files expanded) let errors name the file and line of the culprit.
+    """
+    files = list(files) or [source]
+    materials = _materials(root, files, source)
+    links = []
+    for element in root.findall("link"):
+        name = element.get("name")
+        where = f"{locate(files, 'link', name, source)}: link {name}"
+        if not name:
+            raise SvhdescError(f"{where}: a link needs a name")
+        links.append(
+            Link(
+                name=name,
+                inertial=_inertial(element.find("inertial"), where),
+                visuals=tuple(
+                    _geometry(v, name, materials, packages, source, where) for v in element.findall("visual")
+                ),
+                collisions=tuple(
+                    _geometry(c, name, materials, packages, source, where) for c in element.findall("collision")
+                ),
+            )
+        )
+    names = [link.name for link in links]
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise SvhdescError(f"{locate(files, 'link', dup, source, nth=2)}: duplicate link '{dup}'")
+    joints = []
+    joint_names: set[str] = set()
+    for element in root.findall("joint"):
+        name = element.get("name")
+        where = f"{locate(files, 'joint', name, source)}: joint {name}"
+        if not name:
+            raise SvhdescError(f"{where}: a joint needs a name")
+        if name in joint_names:
+            raise SvhdescError(f"{locate(files, 'joint', name, source, nth=2)}: duplicate joint '{name}'")
+        joint_names.add(name)
+        kind = element.get("type")
+        if kind not in {"revolute", "continuous", "prismatic", "fixed"}:
+            raise SvhdescError(f"{where}: unsupported joint type {kind!r}")
+        limit = element.find("limit")
+        dynamics = element.find("dynamics")
+        ends = []
+        for tag in ("parent", "child"):
+            end = element.find(tag)
+            if end is None or not end.get("link"):
+                raise SvhdescError(f"{where}: needs <{tag} link=...>")
+            if end.get("link") not in names:
+                raise SvhdescError(f"{where}: unknown {tag} link '{end.get('link')}'")
+            ends.append(end.get("link"))
+        axis_element = element.find("axis")
+        axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
+        if kind != "fixed" and math.hypot(*axis) < 1e-9:
+            raise SvhdescError(f"{where}: zero joint axis {axis}")
+        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+        if kind in {"revolute", "prismatic"} and lower > upper:
+            raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}")
+        effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
+        damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
+        for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
+            if value < 0:
+                raise SvhdescError(f"{where}: {label} must be >= 0, got {value}")
+        joints.append(
+            Joint(
+                name=name,
+                type=kind,
+                parent=ends[0],
+                child=ends[1],
+                origin=_pose(element.find("origin"), where),
+                axis=axis,  # type: ignore[arg-type]
+                lower=lower,
+                upper=upper,
+                effort=effort,
+                velocity=velocity,
+                damping=damping,
+                friction=friction,
+                source=where,
+            )
+        )
+    children = {j.child for j in joints}
+    roots = [n for n in names if n not in children]
+    if len(roots) != 1:
+        raise SvhdescError(f"{source}: expected one root link, found {roots}")
+    return Robot(name=root.get("name", source.stem), links=tuple(links), joints=tuple(joints), root=roots[0])

@@ -1,0 +1,123 @@
+"""Actuators, transmissions, joint dynamics, keyframes and the fingertip force sensor."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from svhdesc.compiler.settings.coupling import propagate
+from svhdesc.compiler.settings.schema import Arm, Hand, Transmissions
+from svhdesc.compiler.settings.yamlio import where
+from svhdesc.errors import SvhdescError
+from svhdesc.ir import Actuator, Channel, ForceSensor, Joint, Keyframe, Robot, Transmission
+
+INTERFACES = {
+    "position": "hardware_interface/PositionJointInterface",
+    "effort": "hardware_interface/EffortJointInterface",
+}
+
+
+def arm_joints(robot: Robot, arm: Arm) -> list[str]:
+    if not arm.enabled:
+        return []
+    names = {j.name for j in robot.joints}
+    missing = [j for j in arm.joints if j not in names]
+    if missing:
+        raise SvhdescError(f"{arm.at('joints')}: arm.joints: not in the robot: {missing}")
+    return list(arm.joints)
+
+
+def add_actuation(robot: Robot, hand: Hand, arm: Arm, transmissions: Transmissions) -> Robot:
+    """Channels and arm joints become position actuators with ros_control transmissions."""
+    interface = INTERFACES[transmissions.interface]
+    joints = {j.name: j for j in robot.joints}
+    channel_of = {c.joint: c for c in robot.channels}
+    followers = {j.name: j.mimic.joint for j in robot.joints if j.mimic}
+    actuators = [
+        Actuator(c.joint, c.joint, c.lower, c.upper, c.effort, hand.kp, hand.dampratio) for c in robot.channels
+    ]
+    names = arm_joints(robot, arm)
+    kps = arm.kp if isinstance(arm.kp, list) else [arm.kp] * len(names)
+    if names and len(kps) != len(names):
+        raise SvhdescError(f"{arm.at('kp')}: arm.kp: expected {len(names)} values (one per arm joint), got {len(kps)}")
+    for name, kp in zip(names, kps):
+        j = joints[name]
+        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, arm.dampratio))
+    # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's
+    # effort, and move as fast as the coupling makes them (j4 turns 1.45x as fast as Thumb_Flexion):
+    # a follower capped at the channel's speed lags behind it in engines that enforce velocity limits.
+    updated = []
+    for joint in robot.joints:
+        if joint.name in channel_of or joint.name in followers:
+            channel = channel_of[followers.get(joint.name, joint.name)]
+            joint = replace(
+                joint,
+                effort=channel.effort,
+                velocity=channel.velocity * _speed_ratio(joint, channel),
+                # The drive's friction and reflected inertia sit at the motor, i.e. the channel joint.
+                damping=hand.joint_damping if joint.name in channel_of else hand.coupled_joint_damping,
+                armature=hand.joint_armature if joint.name in channel_of else hand.coupled_joint_armature,
+                limit_margin=hand.limit_margin,
+                limit_solref=_solref(hand.limit_solref),
+            )
+        elif joint.name in names:
+            joint = replace(
+                joint,
+                damping=arm.joint_damping,
+                armature=arm.joint_armature,
+                limit_margin=arm.limit_margin,
+                limit_solref=_solref(arm.limit_solref),
+            )
+        updated.append(joint)
+    transmissions_ = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
+    return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions_)
+
+
+def _solref(values: list[float] | None) -> tuple[float, float] | None:
+    return (values[0], values[1]) if values else None
+
+
+def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, optional: set[str]) -> Robot:
+    """Keyframes name hand channels without prefix; ``optional`` joints the variant lacks are left out."""
+    channel_names = {c.name for c in robot.channels}
+    movable = {j.name for j in robot.joints if j.movable}
+    frames = []
+    for name, values in keyframes.items():
+        positions = {}
+        for key, value in (values or {}).items():
+            joint = f"{hand_prefix}_{key}" if key in channel_names else key
+            if joint in movable:
+                if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
+                    raise SvhdescError(
+                        f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; give its channel instead"
+                    )
+                positions[joint] = float(value)
+            elif key not in optional and key not in channel_names:
+                raise SvhdescError(f"{where(values, 'keyframes')}: keyframe {name}: unknown joint {key}")
+        full = propagate(robot, positions)
+        frames.append(Keyframe(name, tuple((j.name, full[j.name]) for j in robot.joints if j.movable)))
+    return replace(robot, keyframes=tuple(frames))
+
+
+def add_force_sensor(robot: Robot, hand: Hand, solid_bounds: dict[str, np.ndarray]) -> Robot:
+    """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
+    if not hand.force_sensor:
+        return robot
+    link = f"{hand.prefix}_{hand.force_sensor}"
+    if link not in solid_bounds:
+        raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: link {link} has no geometry")
+    low, high = solid_bounds[link]
+    centre = tuple(float(v) for v in (low + high) / 2.0)
+    size = float(np.max(high - low)) / 2.0 + 0.002
+    return replace(robot, sensors=(ForceSensor(f"{link}_force", link, centre, size),))  # type: ignore[arg-type]
+
+
+def _speed_ratio(joint: Joint, channel: Channel) -> float:
+    """max |d joint / d channel| over the channel's range (1 for the channel itself)."""
+    if joint.mimic is None:
+        return 1.0
+    slope = np.polynomial.polynomial.polyder(np.asarray(joint.mimic.coeffs, dtype=float))
+    q = np.linspace(channel.lower, channel.upper, 201)
+    return float(np.max(np.abs(np.polynomial.polynomial.polyval(q, slope)))) if len(slope) else 0.0

@@ -1,0 +1,31 @@
+"""Grasp contact model and friction: condim and coefficients per link."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from svhdesc.compiler.settings import schema as settings
+from svhdesc.compiler.settings.schema import CONTACT_MODELS, Hand
+from svhdesc.ir import Contact, Robot
+
+
+def fingertip_links(robot: Robot, hand: Hand) -> list[str]:
+    names = {link.name for link in robot.links}
+    return [f"{hand.prefix}_{tip}" for tip in hand.fingertips if f"{hand.prefix}_{tip}" in names]
+
+
+def add_contact(robot: Robot, contact: settings.Contact, hand: Hand) -> Robot:
+    """Fingertips get the selected grasp contact model; every other link hard-finger friction."""
+    condim = CONTACT_MODELS[contact.model]
+    tips = set(fingertip_links(robot, hand))
+    tip = Contact(
+        mu=0.0 if contact.model == "point" else contact.sliding,
+        torsional=contact.torsional if condim >= 4 else 0.0,
+        rolling=contact.rolling if condim >= 6 else 0.0,
+        condim=condim,
+    )
+    other = Contact(mu=contact.default_sliding, condim=3)
+    links = [
+        replace(link, contact=tip if link.name in tips else other) if link.collisions else link for link in robot.links
+    ]
+    return replace(robot, links=tuple(links))

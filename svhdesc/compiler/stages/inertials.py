@@ -1,0 +1,123 @@
+"""Inertials from geometry: a cylinder fitted along each link's principal axis, masses from a budget."""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from svhdesc.compiler import exact
+from svhdesc.compiler.source.meshes import principal_cylinder
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.errors import SvhdescError
+from svhdesc.frames import axis_frame, pose_matrix
+from svhdesc.ir import Geometry, Inertial, Link, Robot
+
+
+def _shape(geometry: Geometry, assets: Assets) -> trimesh.Trimesh:
+    if geometry.kind == "mesh":
+        mesh = assets.meshes[geometry.mesh or ""].copy()
+    elif geometry.kind == "box":
+        mesh = trimesh.creation.box(extents=geometry.size)
+    elif geometry.kind == "cylinder":
+        mesh = trimesh.creation.cylinder(radius=geometry.size[0], height=geometry.size[1])
+    elif geometry.kind == "sphere":
+        mesh = trimesh.creation.icosphere(radius=geometry.size[0])
+    elif geometry.kind == "capsule":
+        mesh = trimesh.creation.capsule(radius=geometry.size[0], height=geometry.size[1])
+    else:
+        raise SvhdescError(f"cannot fit an inertial to geometry kind {geometry.kind}")
+    mesh.apply_transform(pose_matrix(geometry.origin))
+    return mesh
+
+
+def link_solid(link: Link, assets: Assets) -> trimesh.Trimesh:
+    """The link's solid in its own frame: collision shapes, or visual ones if it has none."""
+    shapes = [_shape(g, assets) for g in (link.collisions or link.visuals)]
+    return trimesh.util.concatenate(shapes)
+
+
+def cylinder_inertial(solid: trimesh.Trimesh, mass: float) -> Inertial:
+    """1/2 m r^2 about the fitted axis, m (3 r^2 + l^2) / 12 about the others, in the link frame."""
+    centre, axis, radius, length = principal_cylinder(solid)
+    rotation = axis_frame(axis)
+    transverse = mass * (3.0 * radius**2 + length**2) / 12.0
+    principal = np.diag([transverse, transverse, 0.5 * mass * radius**2])
+    tensor = exact.matmul(exact.matmul(rotation, principal), rotation.T)
+    tensor = 0.5 * (tensor + tensor.T)
+    values = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
+    return Inertial(float(mass), tuple(float(c) for c in centre), tuple(float(x) for x in values))  # type: ignore[arg-type]
+
+
+def check_inertial(inertial: Inertial, where: str) -> None:
+    """Positive mass, positive definite tensor, triangle inequality of the principal moments."""
+    ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
+    tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    moments = np.linalg.eigvalsh(tensor)
+    if inertial.mass <= 0 or moments[0] <= 0:
+        raise SvhdescError(f"{where}: inertia not positive definite (mass {inertial.mass}, moments {moments})")
+    a, b, c = moments
+    if a + b < c * (1 - 1e-9):
+        raise SvhdescError(f"{where}: principal moments {moments} violate the triangle inequality")
+
+
+def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefix: str) -> Robot:
+    explicit_full = mass.get("inertials") or {}
+    explicit_mass = dict(mass.get("links") or {})
+    solids = {link.name: link_solid(link, assets) for link in robot.links if link.has_geometry}
+    masses: dict[str, float] = {n: float(m) for n, m in explicit_mass.items() if n in solids}
+    tiny = needs_tiny_mass(robot) - set(explicit_full)
+    masses.update({name: TINY_MASS for name in tiny})
+    for budget in mass.get("budgets") or []:
+        pattern = str(budget["links"]).format(hand=hand_prefix)
+        members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
+        fixed = sum(masses.get(n, 0.0) for n in members)
+        free = [n for n in members if n not in masses]
+        remaining = float(budget["total"]) - fixed
+        if members and (remaining <= 0 or not free):
+            raise SvhdescError(f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}")
+        volumes = {n: abs(exact.mass_properties(solids[n].vertices, solids[n].faces)[0]) for n in free}
+        volume = math.fsum(volumes[n] for n in free)
+        for name in free:
+            masses[name] = remaining * volumes[name] / volume
+    links = []
+    for link in robot.links:
+        if link.name in explicit_full:
+            spec = explicit_full[link.name]
+            inertial = Inertial(float(spec["mass"]), tuple(spec["com"]), tuple(spec["inertia"]))  # type: ignore[arg-type]
+        elif link.inertial is not None:
+            inertial = link.inertial  # explicit in the source
+        elif link.name in solids:
+            if link.name not in masses:
+                raise SvhdescError(f"link {link.name} has geometry but no mass: add it to a budget or mass.links")
+            inertial = cylinder_inertial(solids[link.name], masses[link.name])
+        elif link.name in tiny:
+            inertial = TINY_INERTIAL
+        else:
+            inertial = None
+        if inertial is not None:
+            check_inertial(inertial, f"link {link.name}")
+        links.append(replace(link, inertial=inertial))
+    return replace(robot, links=tuple(links))
+
+
+TINY_MASS = 1e-4  # kg: valid everywhere, negligible against a 7 g fingertip
+TINY_INERTIAL = Inertial(TINY_MASS, (0.0, 0.0, 0.0), (1e-9, 0.0, 0.0, 1e-9, 0.0, 1e-9))
+
+
+def needs_tiny_mass(robot: Robot) -> set[str]:
+    """Every geometry-less link without a source inertial, except the root.
+
+    Consumers disagree on what an inertial-less link is: sdformat drops a joint whose parent link is
+    massless, MuJoCo needs mass on a moving body, and pybullet and DART give such a link 1 kg and a unit
+    inertia (a 5.3 kg hand, and a broken j5 coupling in DART). Merging the links away would drop frames
+    people use (tool0, flange, base; the palm helper frames of the vendor tree), so each gets a negligible
+    mass instead. The root (a URDF 'world' link) stays massless: every consumer treats it as the world.
+    """
+    return {
+        link.name for link in robot.links if not link.has_geometry and link.inertial is None and link.name != robot.root
+    }

@@ -1,0 +1,28 @@
+"""The touching-at-rest probe: compile the model in MuJoCo and list the link pairs in contact at q = 0.
+
+Lives beside the pipeline, not among the stages, because it needs an exporter.
+"""
+
+from __future__ import annotations
+
+from svhdesc.compiler.export.mjcf import export_mjcf
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.errors import SvhdescError
+from svhdesc.ir import Robot
+
+
+def touching_at_rest(robot: Robot, assets: Assets) -> set[tuple[str, str]]:
+    import mujoco
+
+    xml = export_mjcf(robot).decode()
+    try:
+        model = mujoco.MjModel.from_xml_string(xml, {f"assets/{k}": v for k, v in assets.files.items()})
+    except ValueError as exc:  # MuJoCo's compiler names the element; the IR checks should catch it first
+        raise SvhdescError(f"{robot.name}: MuJoCo refuses the model: {str(exc).splitlines()[0]}") from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pairs = set()
+    for contact in data.contact[: data.ncon]:
+        bodies = [model.body(model.geom_bodyid[g]).name for g in (contact.geom1, contact.geom2)]
+        pairs.add((bodies[0], bodies[1]))
+    return pairs

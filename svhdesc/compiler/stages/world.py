@@ -1,0 +1,19 @@
+"""The world the model lives in: solver options and the scene's floor, from their settings sections into the IR."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from svhdesc.compiler.settings.schema import Scene, Simulation
+from svhdesc.ir import Ground, Physics, Robot
+
+
+def add_world(robot: Robot, simulation: Simulation, scene: Scene) -> Robot:
+    physics = Physics(
+        timestep=simulation.timestep,
+        noslip_iterations=simulation.noslip_iterations,
+        coupling_solref=tuple(simulation.coupling_solref),
+        coupling_solimp=tuple(simulation.coupling_solimp),
+        gravity_compensation=simulation.gravity_compensation,
+    )
+    return replace(robot, physics=physics, ground=Ground(scene.floor_z, scene.pedestal_radius))

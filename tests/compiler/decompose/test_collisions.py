@@ -1,0 +1,184 @@
+"""Collision geometry: decomposition through the content cache, hull caps, convexity, primitives."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+import yaml
+from lxml import etree
+
+from svhdesc.compiler.decompose import LINK_CLASS_PARAMS
+from tests.support import REPO, VARIANTS, built
+
+GENERATED = REPO / "generated"
+
+
+def cli(*args: str, cache: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "SVHDESC_CACHE": str(cache)}
+    return subprocess.run(
+        [sys.executable, "-m", "svhdesc.cli", *args], cwd=REPO, capture_output=True, text=True, env=env, timeout=900
+    )
+
+
+def decomposition_counts(stderr: str) -> tuple[int, int, int]:
+    match = re.search(r"decompositions: (\d+) run, (\d+) from the cache, (\d+) from committed", stderr)
+    assert match, stderr
+    return tuple(int(g) for g in match.groups())  # type: ignore[return-value]
+
+
+def hand_config(tmp_path: Path, collision: dict) -> Path:
+    path = tmp_path / "hand.yaml"
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "extends": str(REPO / "config" / "svhdesc.yaml"),
+                "collision": collision,
+                "variants": {"hand": {"xacro": str(REPO / "xacro" / "svh_hand.urdf.xacro"), "args": {"side": "right"}}},
+            }
+        )
+    )
+    return path
+
+
+def _hull_bytes(out: Path) -> list[bytes]:
+    return [p.read_bytes() for p in sorted((out / "hand" / "assets").glob("t_hull_*.obj"))]
+
+
+@pytest.mark.slow
+def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
+    cache, out = tmp_path / "cache", tmp_path / "out"
+    one_tip = {"mode": "hull", "links": {"{hand}_t": {"mode": "decompose", "params": {"max_convex_hull": 3}}}}
+    config = hand_config(tmp_path, one_tip)
+    args = ("build", "--config", str(config), "--out", str(out), "--timings")
+    first = cli(*args, cache=cache)
+    assert first.returncode == 0, first.stderr
+    assert decomposition_counts(first.stderr) == (1, 0, 0)
+    cold = _hull_bytes(out)
+    assert 1 < len(cold) <= 3
+    # Warm (outputs removed, so only the cache can serve): no decomposition, identical hulls.
+    shutil.rmtree(out)
+    warm = cli(*args, cache=cache)
+    assert decomposition_counts(warm.stderr) == (0, 1, 0)
+    assert _hull_bytes(out) == cold
+    # A parameter change misses.
+    one_tip["links"]["{hand}_t"]["params"]["max_convex_hull"] = 2
+    hand_config(tmp_path, one_tip)
+    changed = cli(*args, "--force", cache=cache)
+    assert decomposition_counts(changed.stderr) == (1, 0, 0)
+    capped = _hull_bytes(out)
+    assert len(capped) <= 2
+    # A corrupt entry is detected and rebuilt, never used.
+    entries = [
+        p.parent
+        for p in cache.rglob("entry.json")
+        if json.loads(p.read_text())["meta"]["params"]["max_convex_hull"] == 2
+    ]
+    assert len(entries) == 1
+    hull_file = sorted(entries[0].glob("hull_*.stl"))[0]
+    hull_file.write_bytes(hull_file.read_bytes()[:100])
+    shutil.rmtree(out)
+    rebuilt = cli(*args, cache=cache)
+    assert rebuilt.returncode == 0, rebuilt.stderr
+    assert decomposition_counts(rebuilt.stderr) == (1, 0, 0)
+    assert _hull_bytes(out) == capped
+
+
+@pytest.mark.slow
+def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
+    config = hand_config(tmp_path, {"mode": "hull", "links": {"{hand}_q": {"mode": "decompose"}}})
+    args = ("build", "--config", str(config), "--out", str(tmp_path / "out"), "--timings")
+    assert decomposition_counts(cli(*args, cache=tmp_path / "c").stderr) == (1, 0, 0)
+    assert decomposition_counts(cli(*args, "--rebuild-collisions", cache=tmp_path / "c").stderr) == (1, 0, 0)
+
+
+def hull_caps(variant: str) -> dict[str, int]:
+    """Link -> max_convex_hull of its decomposition, as the config resolves it (classes, then per-link overrides)."""
+    from svhdesc.compiler.build.pipeline import decomposition_plan, read_source
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.settings.config import load_config
+
+    selected = load_config(REPO / "config" / "svhdesc.yaml").select([variant])[0]
+    jobs = decomposition_plan(selected, read_source(selected, {}, Timings()))
+    return {link: params.max_convex_hull for link, _, params in jobs}
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_every_collision_mesh_is_convex_and_within_its_cap(variant: str) -> None:
+    mjcf = etree.parse(str(GENERATED / variant / f"{variant}.xml"))
+    caps = {"palm": 8, "fingertip": 4, "phalanx": 4, "arm": 6}
+    assert caps == {k: p.max_convex_hull for k, p in LINK_CLASS_PARAMS.items()}
+    per_body: dict[str, int] = {}
+    for geom in mjcf.iterfind(".//geom[@class='collision']"):
+        body = geom.getparent().get("name")
+        mesh = trimesh.load(GENERATED / variant / "assets" / f"{geom.get('mesh')}.obj")
+        assert mesh.is_convex and mesh.is_watertight, geom.get("mesh")
+        assert len(mesh.vertices) <= 64
+        per_body[body] = per_body.get(body, 0) + 1
+    caps_per_link = hull_caps(variant)
+    for body, count in per_body.items():
+        assert count <= caps_per_link.get(body, 1), body  # a link the config does not decompose has one hull
+    assert max(per_body.values()) > 1  # really decomposed, not one hull each
+
+
+@pytest.mark.slow
+def test_primitive_collisions_compile_and_simulate(tmp_path: Path) -> None:
+    config = hand_config(
+        tmp_path, {"mode": "primitive", "primitive": "capsule", "links": {"{hand}_e1": {"primitive": "box"}}}
+    )
+    result = cli("build", "--config", str(config), "--out", str(tmp_path / "out"), cache=tmp_path / "c")
+    assert result.returncode == 0, result.stderr
+    model = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / "hand" / "hand.xml"))
+    kinds = {int(model.geom_type[g]) for g in range(model.ngeom) if model.geom_group[g] == 3}
+    assert kinds == {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX)}
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(0)
+    for step in range(1000):
+        if step % 100 == 0:
+            data.ctrl[:] = rng.uniform(model.actuator_ctrlrange[:, 0], model.actuator_ctrlrange[:, 1])
+        mujoco.mj_step(model, data)
+    assert not any(w.number for w in data.warning)
+    urdf = etree.parse(str(tmp_path / "out" / "hand" / "hand.urdf"))
+    assert urdf.find("link[@name='right_hand_e1']/collision/geometry/box") is not None
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("vendor")
+def test_vendor_description_compiles_and_simulates_without_warnings(vendor_build: tuple[Path, object]) -> None:
+    out, _ = vendor_build
+    for variant in ("svh_vendor_right", "svh_vendor_left", "ur5_svh_vendor_right"):
+        check = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "svhdesc.cli",
+                "validate",
+                variant,
+                "--out",
+                str(out),
+                "--checks",
+                "simulate,coupling_tracking,kinematics",
+            ],
+            capture_output=True,
+            text=True,
+        )
+        assert check.returncode == 0, check.stdout + check.stderr
+        assert len(list((out / variant / "assets").glob("*_hull_*.obj"))) > 23
+
+
+def test_built_outputs_are_the_committed_ones() -> None:
+    """The session build used the cache or committed hulls and still reproduced generated/ exactly."""
+    for variant in ("svh_right", "ur5_svh_right"):
+        hulls = sorted((GENERATED / variant / "assets").glob("*_hull_*.obj"))
+        assert len(hulls) > 23
+        for path in hulls:
+            assert (built() / variant / "assets" / path.name).read_bytes() == path.read_bytes()

@@ -1,0 +1,172 @@
+"""svhdesc.plan / `svhdesc plan`: OMPL on the generated MoveIt config, MuJoCo collision checks, Ruckig timing."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from svhdesc.plan import Obstacle, Planner
+from tests.support import run_cli
+
+VARIANT = "ur5_svh_right"
+# A box where the straight joint-space motion from home to test sweeps the hand.
+WALL = Obstacle("wall", "box", (0.06, 0.06, 0.06), (-0.108, 0.726, 0.237))
+
+
+@pytest.fixture(scope="module")
+def planner() -> Planner:
+    return Planner(VARIANT)
+
+
+def _check_timing(plan, config) -> None:  # noqa: ANN001
+    joints = plan.joint_names
+    positions, velocities, accelerations = map(np.asarray, (plan.positions, plan.velocities, plan.accelerations))
+    assert np.all(np.diff(plan.times) > 0)
+    vmax = np.array([config.max_velocity[j] for j in joints]) * config.velocity_scaling
+    amax = np.array([config.max_acceleration[j] for j in joints]) * config.acceleration_scaling
+    assert np.all(np.abs(velocities) <= vmax + 1e-6)
+    assert np.all(np.abs(accelerations) <= amax + 1e-6)
+    lower = np.array([config.lower[j] for j in joints])
+    upper = np.array([config.upper[j] for j in joints])
+    assert np.all(positions >= lower - 1e-9) and np.all(positions <= upper + 1e-9)
+    np.testing.assert_allclose(positions[0], plan.waypoints[0], atol=1e-9)
+    np.testing.assert_allclose(positions[-1], plan.waypoints[-1], atol=1e-6)
+    assert np.allclose(velocities[[0, -1]], 0, atol=1e-12)  # rest to rest (Ruckig leaves ~1e-16)
+
+
+def _swept_valid(planner: Planner, plan, rest) -> bool:  # noqa: ANN001
+    """Every 5 mrad along the straight segments between the waypoints is collision-free."""
+    index = planner.scene.joint_index(plan.joint_names)
+    planner.scene.set_state(rest)
+    for a, b in zip(plan.waypoints, plan.waypoints[1:]):
+        a, b = np.asarray(a), np.asarray(b)
+        steps = max(1, int(np.ceil(np.abs(b - a).max() / 0.005)))
+        for k in range(steps + 1):
+            if not planner.scene.valid(index, a + (b - a) * k / steps):
+                return False
+    return True
+
+
+def test_home_to_test_is_timed_within_the_limits(planner: Planner) -> None:
+    plan = planner.plan("manipulator", "home", goal="test")
+    assert plan.success, plan.message
+    assert plan.joint_names == [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]
+    _check_timing(plan, planner.config)
+    test = planner.config.state("manipulator", "test")
+    np.testing.assert_allclose(plan.waypoints[-1], [test[j] for j in plan.joint_names])
+
+
+def test_a_wall_forces_a_detour_that_stays_clear(planner: Planner) -> None:
+    walled = Planner(VARIANT, [WALL])
+    rest = walled.resolve("manipulator", "home")
+    straight = type("P", (), {"joint_names": walled.config.active("manipulator")})()
+    home, test = walled.resolve("manipulator", "home"), walled.resolve("manipulator", "test")
+    straight.waypoints = [[home[j] for j in straight.joint_names], [test[j] for j in straight.joint_names]]
+    assert not _swept_valid(walled, straight, rest)  # the direct motion hits the wall
+    plan = walled.plan("manipulator", "home", goal="test", timeout=10.0)
+    assert plan.success, plan.message
+    assert len(plan.waypoints) > 2 and _swept_valid(walled, plan, rest)
+    _check_timing(plan, walled.config)
+
+
+def test_pose_goal_reaches_the_tool_pose(planner: Planner) -> None:
+    pose = (0.2, 0.5, 0.3, math.pi, 0.0, 0.3)
+    plan = planner.plan("manipulator", "home", pose=pose)
+    assert plan.success, plan.message
+    end = planner.resolve("manipulator", "home")
+    end.update(zip(plan.joint_names, plan.positions[-1]))
+    from svhdesc.plan.ik import pose_matrix
+
+    reached = planner.kinematics().tip_pose("manipulator", end)
+    np.testing.assert_allclose(reached, pose_matrix(pose), atol=1e-4)
+
+
+def test_hand_plans_channels_and_coupled_joints_follow(planner: Planner) -> None:
+    plan = planner.plan("hand", "home", goal="test")
+    assert plan.success and len(plan.joint_names) == 9 and "right_hand_j12" not in plan.joint_names
+    scene = planner.scene
+    scene.set_state({"right_hand_Ring_Finger": 0.5})
+    j12 = scene.data.qpos[scene.joint_index(["right_hand_j12"])[0]]
+    assert j12 == pytest.approx(1.3588 * 0.5, abs=1e-3)  # the coupling polynomial of config/coupling.yaml
+
+
+def test_a_goal_in_collision_fails_cleanly(planner: Planner) -> None:
+    blocked = Planner(VARIANT, [Obstacle("block", "box", (0.1, 0.1, 0.1), (-0.108, 0.843, 0.05))])
+    plan = blocked.plan("manipulator", "home", goal="test")
+    assert not plan.success and "goal state in collision" in plan.message
+
+
+def test_cli_writes_json_and_refuses_bad_input(tmp_path: Path) -> None:
+    out = tmp_path / "plan.json"
+    result = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--json", str(out))
+    assert result.returncode == 0, result.stderr
+    document = json.loads(out.read_text())
+    assert document["success"] is True and document["planning_time"] > 0
+    assert len(document["joint_names"]) == 6 and document["points"][-1]["time_from_start"] == document["duration"]
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "obstacles:\n- {name: block, shape: box, size: [0.1, 0.1, 0.1], position: [-0.108, 0.843, 0.05]}\n"
+    )
+    failed = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene))
+    assert failed.returncode == 1 and "goal state in collision" in failed.stderr
+    for args, culprit in (
+        (("--group", "nope", "--from", "home", "--to", "test"), "nope"),
+        (("--group", "manipulator", "--from", "home"), "--to"),
+        (("--group", "manipulator", "--from", "1,2", "--to", "test"), "2 values"),
+        (("--group", "manipulator", "--from", "home", "--to", "test", "--planner", "Magic"), "Magic"),
+    ):
+        bad = run_cli("plan", VARIANT, *args)
+        assert bad.returncode == 2 and bad.stderr.startswith("error:") and culprit in bad.stderr, bad.stderr
+        assert "Traceback" not in bad.stderr
+    scene.write_text("obstacles:\n- {shape: sphere, size: [1], position: [0, 0, 0]}\n")
+    bad = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene))
+    assert bad.returncode == 2 and "obstacles[0]" in bad.stderr
+
+
+def test_sim_scene_adds_objects_and_refuses_bad_files(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "obstacles:\n- {name: table, shape: box, size: [0.5, 0.3, 0.02], position: [0, 0.6, -0.22]}\n"
+        "- {name: can, shape: cylinder, size: [0.025, 0.06], position: [0.1, 0.6, -0.14], mass: 0.1}\n"
+    )
+    result = run_cli("sim", VARIANT, "--scene", str(scene), "--duration", "0.5", "--track", "can")
+    assert result.returncode == 0, result.stderr
+    line = next(x for x in result.stdout.splitlines() if x.strip().startswith("can:"))
+    z = float(line.split("xyz")[1].split()[2])
+    assert z == pytest.approx(-0.14, abs=0.002)  # the free can stands on the table (it would fall without it)
+    for text, culprit in (
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1], position: [0, 0, 0]}\n", "obstacles[0]"),
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1, 1], position: [0, 0, 0], mass: -1}\n", "mass"),
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1, .nan], position: [0, 0, 0]}\n", "finite"),
+        ("obstacles: 3\n", "obstacles:"),
+        ("{{{", "not YAML"),
+    ):
+        scene.write_text(text)
+        bad = run_cli("sim", VARIANT, "--scene", str(scene), "--duration", "0.1")
+        assert bad.returncode == 2 and bad.stderr.startswith("error:") and culprit in bad.stderr, bad.stderr
+        assert "Traceback" not in bad.stderr
+
+
+def test_cli_same_seed_same_path(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    x, y, z = WALL.position
+    scene.write_text(f"obstacles:\n- {{name: wall, shape: box, size: [0.06, 0.06, 0.06], position: [{x}, {y}, {z}]}}\n")
+    paths = []
+    for k in range(2):
+        out = tmp_path / f"plan{k}.json"
+        args = ("--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene), "--json", str(out))
+        result = run_cli("plan", VARIANT, *args, "--seed", "5")
+        assert result.returncode == 0, result.stderr
+        paths.append(json.loads(out.read_text())["waypoints"])
+    assert paths[0] == paths[1] and len(paths[0]) > 2  # a detour, found the same way twice

@@ -1,0 +1,606 @@
+"""The ROS 1 node against a real rosmaster: drivers' interfaces, JTC semantics, connector, launch.
+
+One master, one roslaunch of the generated ur5_svh_right launch file (node + robot_state_publisher,
+as fast as possible on simulated time) and one in-process rospy client serve the whole module.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+import svhdesc
+from svhdesc.ros.system import ros_available
+from tests.rosmaster import master, stop, svhdesc_executable, wait_for
+from tests.support import REPO, run_cli
+
+pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed")
+
+VARIANT = "ur5_svh_right"
+HAND = "right_hand_controller"
+ARM = "scaled_pos_joint_traj_controller"
+GOAL_MD5 = "cff5c1d533bf2f82dd0138d57f4304bb"  # control_msgs/FollowJointTrajectoryActionGoal on ROS 1
+
+
+class Latest:
+    """The last message (and every message, if asked) on a topic."""
+
+    def __init__(self, rospy: Any, topic: str, kind: Any, keep: bool = False) -> None:
+        self.message: Any = None
+        self.all: list[Any] = []
+        self._keep = keep
+        self._lock = threading.Lock()
+        self.subscriber = rospy.Subscriber(topic, kind, self._on, queue_size=100)
+
+    def _on(self, message: Any) -> None:
+        with self._lock:
+            self.message = message
+            if self._keep:
+                self.all.append(message)
+
+    def fresh(self, timeout: float = 10.0) -> Any:
+        """A message received after this call."""
+        with self._lock:
+            before = self.message
+        return wait_for(lambda: self.message is not before and self.message, timeout, "a new message")
+
+
+@pytest.fixture(scope="module")
+def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    from svhdesc.ros.messages import control_msgs
+    from svhdesc.ros.system import import_ros
+
+    rospy = import_ros()
+    home = tmp_path_factory.mktemp("roshome")
+    with master(home) as env:
+        rospy.set_param("/use_sim_time", True)
+        model = svhdesc.get(VARIANT)
+        launch = subprocess.Popen(
+            ["roslaunch", str(model.directory / "launch" / "sim.launch"), "pace:=as-fast"],
+            env={
+                **env,
+                "PATH": "/usr/bin:/bin",
+                "ROS_PACKAGE_PATH": str(model.directory.parent),
+                "SVHDESC": svhdesc_executable(),
+            },
+            stdout=(home / "launch.out").open("w"),
+            stderr=subprocess.STDOUT,
+        )
+        try:
+            rospy.init_node("svhdesc_test", anonymous=True, disable_signals=True)
+            from sensor_msgs.msg import JointState
+
+            states = Latest(rospy, "/joint_states", JointState)
+            wait_for(lambda: states.message, 60, "/joint_states from the launched node")
+            yield {"rospy": rospy, "msgs": control_msgs(), "states": states, "home": home, "launch": launch}
+        finally:
+            stop(launch)
+
+
+def _keyframe(name: str) -> dict[str, float]:
+
+    model = svhdesc.load_mujoco(VARIANT)
+    key = model.key(name)
+    return {model.actuator(a).name: float(key.ctrl[a]) for a in range(model.nu)}
+
+
+def _goal(
+    ros: dict[str, Any], joints: list[str], positions: list[list[float]], times: list[float], **extra: Any
+) -> Any:
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    goal = ros["msgs"].FollowJointTrajectoryGoal()
+    goal.trajectory.joint_names = joints
+    for p, t in zip(positions, times):
+        goal.trajectory.points.append(JointTrajectoryPoint(positions=p, time_from_start=ros["rospy"].Duration(t)))
+    for key, value in extra.items():
+        setattr(goal, key, value)
+    return goal
+
+
+def _client(ros: dict[str, Any], controller: str) -> Any:
+    import actionlib
+
+    client = actionlib.SimpleActionClient(
+        f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
+    )
+    assert client.wait_for_server(ros["rospy"].Duration(30)), controller
+    return client
+
+
+def _send(ros: dict[str, Any], controller: str, goal: Any, wait: float = 60.0) -> tuple[int, Any]:
+    client = _client(ros, controller)
+    client.send_goal(goal)
+    assert client.wait_for_result(ros["rospy"].Duration(wait)), "no result"
+    return client.get_state(), client.get_result()
+
+
+def _positions(ros: dict[str, Any]) -> dict[str, float]:
+    message = ros["states"].fresh()
+    return dict(zip(message.name, message.position))
+
+
+def test_goal_message_md5_matches_a_real_ros_system() -> None:
+    from svhdesc.ros.messages import control_msgs
+
+    msgs = control_msgs()
+    assert msgs.FollowJointTrajectoryActionGoal._md5sum == GOAL_MD5
+    assert msgs.FollowJointTrajectoryActionGoal._type == "control_msgs/FollowJointTrajectoryActionGoal"
+    assert msgs.FollowJointTrajectoryResult.INVALID_JOINTS == -2
+
+
+def test_home_to_test_on_arm_and_hand(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    test = _keyframe("test")
+    arm = [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]
+    hand = [n for n in test if n.startswith("right_hand_")]
+    assert len(hand) == 9
+    clients = {}
+    for controller, joints in ((ARM, arm), (HAND, hand)):
+        clients[controller] = _client(ros, controller)
+        clients[controller].send_goal(_goal(ros, joints, [[test[j] for j in joints]], [4.0]))
+    for controller, client in clients.items():
+        assert client.wait_for_result(ros["rospy"].Duration(60)), controller
+        assert client.get_state() == GoalStatus.SUCCEEDED, (controller, client.get_goal_status_text())
+        assert client.get_result().error_code == 0
+    ros["rospy"].sleep(0.5)  # simulated time
+    positions = _positions(ros)
+    assert len(positions) == 26
+    for joint, target in test.items():
+        assert abs(positions[joint] - target) < 2e-3, joint
+    spec = yaml.safe_load((REPO / "config" / "coupling.yaml").read_text())
+    for coupling in spec["couplings"]:
+        channel = positions[f"right_hand_{coupling['follows']}"]
+        expected = sum(c * channel**k for k, c in enumerate(coupling["poly"]))
+        assert positions[f"right_hand_{coupling['joint']}"] == pytest.approx(expected, abs=1e-3), coupling["joint"]
+
+
+def test_bad_goals_are_rejected_with_jtc_error_codes(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    result = ros["msgs"].FollowJointTrajectoryResult
+    wait_for(lambda: ros["rospy"].Time.now().to_sec() > 1.0, 30, "one simulated second")
+    old = _goal(ros, ["right_hand_Pinky"], [[0.1]], [0.5])
+    old.trajectory.header.stamp = ros["rospy"].Time.from_sec(0.1)  # ended at t = 0.6 s
+    # noetic's JTC never answers OLD_HEADER_TIMESTAMP: all points in the past is INVALID_GOAL.
+    cases = [
+        (HAND, _goal(ros, ["right_hand_j12"], [[0.1]], [1.0]), result.INVALID_JOINTS),  # coupled: not a channel
+        (ARM, _goal(ros, ["shoulder_pan_joint"], [[0.1]], [1.0]), result.INVALID_JOINTS),  # arm: all six or none
+        (HAND, _goal(ros, ["right_hand_Pinky"], [[math.nan]], [1.0]), result.INVALID_GOAL),
+        (HAND, _goal(ros, ["right_hand_Pinky"], [[3.0]], [1.0]), result.INVALID_GOAL),  # beyond its limit
+        (HAND, _goal(ros, ["right_hand_Pinky"], [[0.1], [0.2]], [1.0, 0.5]), result.INVALID_GOAL),
+        (HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Ring_Finger"], [[0.1]], [1.0]), result.INVALID_GOAL),
+        (HAND, old, result.INVALID_GOAL),
+        (HAND, _goal(ros, ["right_hand_Pinky"], [[0.1], [0.2]], [1.0, 1.0]), result.INVALID_GOAL),  # not increasing
+        (HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Pinky"], [[0.1, 0.1]], [1.0]), result.INVALID_JOINTS),
+    ]
+    for controller, goal, code in cases:
+        state, outcome = _send(ros, controller, goal)
+        assert state == GoalStatus.REJECTED and outcome.error_code == code, (goal.trajectory, outcome)
+        assert outcome.error_string
+    _, outcome = _send(ros, HAND, old)
+    assert outcome.error_string.startswith("Dropping all 1 trajectory point(s), as they occur before the current")
+    positions = _positions(ros)
+    assert all(math.isfinite(v) for v in positions.values())
+
+
+def test_tolerance_violations_abort(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    tolerance = ros["msgs"].JointTolerance
+    result = ros["msgs"].FollowJointTrajectoryResult
+    positions = _positions(ros)
+    arm = [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]
+    start = [positions[j] for j in arm]
+    moved = [start[0] - 0.3, *start[1:]]
+    goal = _goal(ros, arm, [moved], [1.0], path_tolerance=[tolerance(name="shoulder_pan_joint", position=1e-5)])
+    state, outcome = _send(ros, ARM, goal)
+    assert state == GoalStatus.ABORTED and outcome.error_code == result.PATH_TOLERANCE_VIOLATED
+    # The spread rests on its limit margin, 2 mrad above 0: a 1 urad goal tolerance cannot be met.
+    goal = _goal(
+        ros,
+        ["right_hand_Finger_Spread"],
+        [[0.0]],
+        [0.2],
+        goal_tolerance=[tolerance(name="right_hand_Finger_Spread", position=1e-6)],
+        goal_time_tolerance=ros["rospy"].Duration(0.2),
+    )
+    state, outcome = _send(ros, HAND, goal)
+    assert state == GoalStatus.ABORTED and outcome.error_code == result.GOAL_TOLERANCE_VIOLATED
+
+
+def test_preemption_cancel_and_partial_hand_goals(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    rospy = ros["rospy"]
+    before = _positions(ros)
+    first, second = _client(ros, HAND), _client(ros, HAND)
+    first.send_goal(_goal(ros, ["right_hand_Pinky"], [[0.9]], [20.0]))
+    wait_for(lambda: first.get_state() == GoalStatus.ACTIVE, 30, "the first goal to start")
+    second.send_goal(_goal(ros, ["right_hand_Pinky"], [[0.3]], [0.5]))  # a partial goal: one channel
+    assert second.wait_for_result(rospy.Duration(60))
+    assert second.get_state() == GoalStatus.SUCCEEDED
+    assert first.wait_for_result(rospy.Duration(10)) and first.get_state() == GoalStatus.PREEMPTED
+    rospy.sleep(0.3)
+    after = _positions(ros)
+    assert after["right_hand_Pinky"] == pytest.approx(0.3, abs=2e-3)
+    assert after["right_hand_Thumb_Flexion"] == pytest.approx(before["right_hand_Thumb_Flexion"], abs=2e-3)
+
+    first.send_goal(_goal(ros, ["right_hand_Pinky"], [[0.9]], [20.0]))
+    wait_for(lambda: first.get_state() == GoalStatus.ACTIVE, 30, "a goal to start")
+    rospy.sleep(2.0)
+    first.cancel_goal()
+    assert first.wait_for_result(rospy.Duration(10)) and first.get_state() == GoalStatus.PREEMPTED
+    held = _positions(ros)["right_hand_Pinky"]
+    assert 0.3 < held < 0.9  # canceled midway
+    rospy.sleep(1.0)
+    assert _positions(ros)["right_hand_Pinky"] == pytest.approx(held, abs=5e-3)  # and held there
+
+
+def test_an_empty_goal_stops_where_the_hand_is(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    rospy = ros["rospy"]
+    moving = _client(ros, HAND)
+    moving.send_goal(_goal(ros, ["right_hand_Ring_Finger"], [[0.9]], [20.0]))
+    wait_for(lambda: moving.get_state() == GoalStatus.ACTIVE, 30, "a goal to start")
+    rospy.sleep(1.5)
+    state, result = _send(ros, HAND, _goal(ros, ["right_hand_Ring_Finger"], [], []))
+    assert state == GoalStatus.SUCCEEDED and result.error_code == 0
+    assert moving.wait_for_result(rospy.Duration(10)) and moving.get_state() == GoalStatus.PREEMPTED
+    held = _positions(ros)["right_hand_Ring_Finger"]
+    rospy.sleep(1.0)
+    assert _positions(ros)["right_hand_Ring_Finger"] == pytest.approx(held, abs=5e-3)
+    # Unknown joints are still refused first, as the controller does.
+    state, result = _send(ros, HAND, _goal(ros, ["no_such_joint"], [], []))
+    assert state == GoalStatus.REJECTED and result.error_code == ros["msgs"].FollowJointTrajectoryResult.INVALID_JOINTS
+
+
+def test_command_topic_and_connector_topics(ros: dict[str, Any]) -> None:
+    from std_msgs.msg import Float64
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    rospy = ros["rospy"]
+    connector = yaml.safe_load((svhdesc.get(VARIANT).directory / "config" / "connector.yaml").read_text())
+    entry = {e["name"]: e for e in connector["joints"]}
+    assert len(entry) == 15 and {"p_gain", "d_gain", "control_topic", "pose_topic", "initpose_topic"} <= set(
+        entry["right_hand_Ring_Finger"]
+    )
+    ring = entry["right_hand_Ring_Finger"]
+    pose = Latest(rospy, ring["pose_topic"], Float64)
+    initpose = rospy.Publisher(ring["initpose_topic"], Float64, queue_size=1)
+    control = rospy.Publisher(ring["control_topic"], Float64, queue_size=1)
+    wait_for(lambda: initpose.get_num_connections() and control.get_num_connections(), 20, "connector subscribers")
+    initpose.publish(Float64(0.6))
+    wait_for(lambda: abs(_positions(ros)["right_hand_Ring_Finger"] - 0.6) < 5e-3, 20, "initpose to reset the joint")
+    positions = _positions(ros)
+    assert positions["right_hand_j12"] == pytest.approx(1.3588 * positions["right_hand_Ring_Finger"], abs=2e-3)
+    control.publish(Float64(math.nan))  # refused; the joint stays
+    control.publish(Float64(0.2))
+    wait_for(lambda: abs(pose.fresh().data - 0.2) < 3e-3, 30, "the pose topic to report the new target")
+
+    command = rospy.Publisher(f"/{HAND}/command", JointTrajectory, queue_size=1)
+    wait_for(lambda: command.get_num_connections(), 20, "the command subscriber")
+    bad = JointTrajectory(joint_names=["right_hand_Pinky", "nope"])
+    bad.points.append(JointTrajectoryPoint(positions=[0.1, 0.1], time_from_start=rospy.Duration(0.2)))
+    command.publish(bad)
+    good = JointTrajectory(joint_names=["right_hand_Pinky"])
+    good.points.append(JointTrajectoryPoint(positions=[0.45], time_from_start=rospy.Duration(0.3)))
+    command.publish(good)
+    wait_for(lambda: abs(_positions(ros)["right_hand_Pinky"] - 0.45) < 3e-3, 30, "the command to move the pinky")
+    assert all(math.isfinite(v) for v in _positions(ros).values())
+
+
+def test_clock_tracked_pose_and_fingertip_wrench(ros: dict[str, Any]) -> None:
+    from geometry_msgs.msg import WrenchStamped
+    from rosgraph_msgs.msg import Clock
+
+    rospy = ros["rospy"]
+    clock = Latest(rospy, "/clock", Clock)
+    first = clock.fresh().clock.to_sec()
+    assert wait_for(lambda: clock.fresh().clock.to_sec() > first, 10, "/clock to advance")
+    wrench = Latest(rospy, "/right_hand_t_force", WrenchStamped).fresh()
+    assert wrench.header.frame_id == "right_hand_t"  # the URDF's F3D frameName
+    assert all(math.isfinite(v) for v in (wrench.wrench.force.x, wrench.wrench.torque.z))
+
+
+def test_tf_from_robot_state_publisher_covers_every_frame(ros: dict[str, Any]) -> None:
+    from lxml import etree
+
+    from svhdesc.ros.messages import dynamic_class
+
+    rospy = ros["rospy"]
+    tf_message = dynamic_class("tf2_msgs/TFMessage", "geometry_msgs/TransformStamped[] transforms\n")
+    seen: set[str] = set()
+    subscribers = [
+        rospy.Subscriber(topic, tf_message, lambda m: seen.update(t.child_frame_id for t in m.transforms))
+        for topic in ("/tf", "/tf_static")
+    ]
+    links = {link.get("name") for link in etree.parse(str(svhdesc.get(VARIANT).urdf_path)).iterfind("link")}
+    links.discard("world")  # the root: a parent, never a child
+    try:
+        wait_for(lambda: links <= seen, 30, f"tf frames {sorted(links - seen)[:5]}")
+    finally:
+        for subscriber in subscribers:
+            subscriber.unregister()
+
+
+def test_node_survived_and_logged_reasons(ros: dict[str, Any]) -> None:
+    from rosgraph_msgs.msg import Log
+
+    assert ros["launch"].poll() is None, "roslaunch (a required node) exited"
+    log = Latest(ros["rospy"], "/rosout", Log, keep=True)
+    # Provoke one more rejection and look for its logged reason.
+    from std_msgs.msg import Float64
+
+    publisher = ros["rospy"].Publisher("/mujoco/right_hand_Pinky/control", Float64, queue_size=1)
+
+    def logged(text: str, value: float) -> bool:
+        # Publish until the node's own /rosout connection to us carries the answer.
+        publisher.publish(Float64(value))
+        return any(text in m.msg and m.level >= Log.WARN and m.name.endswith("svhdesc_sim") for m in log.all)
+
+    wait_for(lambda: logged("inf is not finite", math.inf), 30, "a logged reason", period=0.2)
+    wait_for(lambda: logged("5.0 is not finite or outside", 5.0), 30, "the range reason", period=0.2)
+    assert np.all(np.isfinite(list(_positions(ros).values())))
+
+
+def test_cli_without_a_master_says_so(tmp_path: Path) -> None:
+    from tests.rosmaster import free_port
+
+    env = {**os.environ, "ROS_MASTER_URI": f"http://127.0.0.1:{free_port()}", "ROS_HOME": str(tmp_path)}
+    result = subprocess.run(
+        [svhdesc_executable(), "sim", "svh_right", "--ros"], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 2 and result.stderr.startswith("error: no ROS master at http://127.0.0.1:")
+
+
+def test_cli_refuses_bad_connector_without_traceback(tmp_path: Path) -> None:
+    bad = tmp_path / "connector.yaml"
+    bad.write_text("joints:\n- {name: right_hand_Pinky, p_gain: -1}\n")
+    for path, culprit in ((bad, "connector.yaml"), (tmp_path / "missing.yaml", "missing.yaml")):
+        result = run_cli("sim", VARIANT, "--ros", "--connector", str(path))
+        assert result.returncode == 2 and result.stderr.startswith("error:") and culprit in result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_missing_ros_names_the_apt_packages() -> None:
+    """Run where the venv cannot see Debian's dist-packages (pointed elsewhere): one clear error."""
+    code = (
+        "import sys\n"
+        "import svhdesc.ros.system as system\n"
+        "system.DIST_PACKAGES = '/nonexistent'\n"
+        "sys.path = [p for p in sys.path if 'dist-packages' not in p]\n"
+        "try:\n"
+        "    system.import_ros()\n"
+        "except system.SvhdescError as exc:\n"
+        "    print(exc)\n"
+        "    assert sys.path[-1] == '/nonexistent'\n"  # appended, never ahead of the venv
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert "apt-get install" in result.stdout and "python3-rospy" in result.stdout
+
+
+def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
+    """svh_left beside the running arm: its names under /left, its clock remapped away from /clock."""
+    from actionlib_msgs.msg import GoalStatus
+    from sensor_msgs.msg import JointState
+
+    rospy = ros["rospy"]
+    node = subprocess.Popen(
+        [svhdesc_executable(), "sim", "svh_left", "--ros", "--realtime", "--duration", "30"]
+        + ["__ns:=/left", "__name:=left_sim", "/clock:=/left/clock"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        states = Latest(rospy, "/left/joint_states", JointState)
+        names = wait_for(lambda: states.message, 60, "/left/joint_states").name
+        assert len(names) == 20 and all(n.startswith("left_hand_") for n in names)
+        import actionlib
+
+        client = actionlib.SimpleActionClient(
+            "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
+        )
+        assert client.wait_for_server(rospy.Duration(60))
+        client.send_goal(
+            _goal(ros, ["left_hand_Pinky"], [[0.5]], [2.0])
+        )  # within the real pinky's 0.98 rad/s (the model's makes ~0.4)
+        wait_for(lambda: client.get_state() == GoalStatus.SUCCEEDED, 30, "the left hand's goal")
+        # SCHUNK's controller reports success at the trajectory's end, the finger may still be on its way.
+        wait_for(
+            lambda: abs(dict(zip(*(lambda m: (m.name, m.position))(states.fresh())))["left_hand_Pinky"] - 0.5) < 0.01,
+            30,
+            "the left pinky at 0.5",
+        )
+    finally:
+        stop(node)
+
+
+def test_generated_message_md5sums_equal_noetic() -> None:
+    """md5sums a Noetic system checks: SwitchController's as a Noetic client asked for it
+    (h4r_ev3_ctrl#22), JointTrajectoryControllerState's as control_msgs 1.5 has it; genmsg's md5 text
+    rebuilt here agrees with genpy's own hash of FollowJointTrajectoryGoal."""
+    import hashlib
+
+    from svhdesc.ros.messages import _own_definitions, control_msgs, controller_manager_msgs, md5_text
+
+    msgs, manager = control_msgs(), controller_manager_msgs()
+    assert manager.SwitchController._md5sum == "b29a7abc673b2c54c14b54e50f8d06a5"
+    assert manager.SwitchController._type == "controller_manager_msgs/SwitchController"
+    assert msgs.JointTrajectoryControllerState._md5sum == "10817c60c2486ef6b33e97dcd87f4474"
+    assert manager.ListControllers._md5sum == "1341feb2e63fa791f855565d0da950d8"
+    assert manager.ListControllerTypes._md5sum == "c1d4cd11aefa9f97ba4aeb5b33987f4e"
+    assert msgs.QueryTrajectoryState._md5sum == "ec93cdecbd8062d761aa52b7c90cd44b"
+    goal = _own_definitions()["FollowJointTrajectoryGoal"]
+
+    def md5_of(full: str) -> str:
+        if full.startswith("control_msgs/"):
+            return getattr(msgs, full.split("/")[1])._md5sum
+        package, name = full.split("/")
+        import importlib
+
+        return getattr(importlib.import_module(f"{package}.msg"), name)._md5sum
+
+    text = md5_text(goal, "control_msgs", md5_of)
+    assert hashlib.md5(text.encode()).hexdigest() == msgs.FollowJointTrajectoryGoal._md5sum
+
+
+def test_hand_defaults_are_schunks_and_arm_defaults_are_urs(ros: dict[str, Any]) -> None:
+    """SCHUNK's controller declares no constraints and never sees a velocity: a goal ends SUCCEEDED
+    wherever the fingers stop. ur5_controllers.yaml's path tolerance (0.2 rad) aborts a goal the arm
+    cannot follow."""
+    from actionlib_msgs.msg import GoalStatus
+
+    rospy, msgs = ros["rospy"], ros["msgs"]
+    start = _positions(ros)["right_hand_Pinky"]
+    target = 0.9 if start < 0.45 else 0.05
+    results = Latest(rospy, f"/{HAND}/follow_joint_trajectory/result", msgs.FollowJointTrajectoryActionResult)
+    states = Latest(rospy, f"/{HAND}/state", msgs.JointTrajectoryControllerState, keep=True)
+    try:
+        states.fresh()
+        state, result = _send(ros, HAND, _goal(ros, ["right_hand_Pinky"], [[target]], [0.05]))
+        assert state == GoalStatus.SUCCEEDED and result.error_code == 0
+        ended = wait_for(lambda: results.message, 10, "the result message").header.stamp.to_sec()
+        wait_for(lambda: states.all[-1].header.stamp.to_sec() > ended, 10, "a state after the result")
+        at_end = min(states.all, key=lambda m: abs(m.header.stamp.to_sec() - ended))
+        pinky = at_end.actual.positions[list(at_end.joint_names).index("right_hand_Pinky")]
+        assert abs(pinky - target) > 0.05, (pinky, target)  # far from the goal when it succeeded
+    finally:
+        results.subscriber.unregister()
+        states.subscriber.unregister()
+    arm = [f"{n}_joint" for n in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")]
+    positions = _positions(ros)
+    fast = [positions[arm[0]] + 1.0, *[positions[j] for j in arm[1:]]]
+    state, result = _send(ros, ARM, _goal(ros, arm, [fast], [0.1]))
+    assert state == GoalStatus.ABORTED
+    assert result.error_code == ros["msgs"].FollowJointTrajectoryResult.PATH_TOLERANCE_VIOLATED
+    back = [positions[j] for j in arm]
+    state, _ = _send(ros, ARM, _goal(ros, arm, [back], [2.0]))
+    assert state == GoalStatus.SUCCEEDED
+
+
+def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
+    rospy, msgs = ros["rospy"], ros["msgs"]
+    state = Latest(rospy, f"/{HAND}/state", msgs.JointTrajectoryControllerState, keep=True)
+    try:
+        first = state.fresh(20)
+        wait_for(lambda: len(state.all) >= 6, 20, "a few states")
+        assert len(first.joint_names) == 9 and first.joint_names[0] == "right_hand_Thumb_Flexion"
+        stamps = [m.header.stamp.to_sec() for m in state.all[-5:]]
+        assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=0.011)  # 50 Hz of simulated time
+        positions = _positions(ros)
+        latest = state.fresh()
+        for name, actual in zip(latest.joint_names, latest.actual.positions):
+            assert actual == pytest.approx(positions[name], abs=5e-3), name
+    finally:
+        state.subscriber.unregister()
+    query = rospy.ServiceProxy(f"/{HAND}/query_state", msgs.QueryTrajectoryState)
+    query.wait_for_service(20)
+    client = _client(ros, HAND)
+    now = rospy.Time.now()
+    goal = _goal(ros, ["right_hand_Ring_Finger"], [[0.2], [0.6]], [1.0, 2.0])
+    goal.trajectory.header.stamp = now
+    client.send_goal(goal)
+    wait_for(lambda: client.get_state() == 1, 30, "the goal to start")  # ACTIVE
+    answer = query(now + rospy.Duration(2.5))  # after the end: the last point
+    ring = list(answer.name).index("right_hand_Ring_Finger")
+    assert answer.position[ring] == pytest.approx(0.6, abs=1e-6) and answer.velocity[ring] == 0.0
+    middle = query(now + rospy.Duration(1.0))
+    assert middle.position[ring] == pytest.approx(0.2, abs=1e-6)
+    assert client.wait_for_result(rospy.Duration(60))
+
+
+def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
+    from svhdesc.ros.messages import controller_manager_msgs
+
+    rospy, cm = ros["rospy"], controller_manager_msgs()
+    listing = rospy.ServiceProxy("/controller_manager/list_controllers", cm.ListControllers)
+    switch = rospy.ServiceProxy("/controller_manager/switch_controller", cm.SwitchController)
+    types = rospy.ServiceProxy("/controller_manager/list_controller_types", cm.ListControllerTypes)
+    listing.wait_for_service(20)
+
+    def states() -> dict[str, str]:
+        return {c.name: c.state for c in listing().controller}
+
+    assert states() == {
+        "joint_state_controller": "running",
+        HAND: "running",
+        ARM: "running",
+        "pos_joint_traj_controller": "stopped",
+        "joint_group_vel_controller": "stopped",
+    }
+    claimed = {c.name: c.claimed_resources[0].resources for c in listing().controller}
+    assert len(claimed[ARM]) == 6 and claimed[ARM] == claimed["pos_joint_traj_controller"]
+    assert "position_controllers/ScaledJointTrajectoryController" in types().types
+    strict, best = cm.SwitchControllerRequest.STRICT, cm.SwitchControllerRequest.BEST_EFFORT
+    # Both arm controllers would claim the same joints: refused, whatever the strictness.
+    assert not switch(["pos_joint_traj_controller"], [], best, False, 0.0).ok
+    assert not switch(["pos_joint_traj_controller"], ["no_such_controller"], strict, False, 0.0).ok
+    assert states()[ARM] == "running"
+    assert switch(["pos_joint_traj_controller"], [ARM, "no_such_controller"], best, False, 0.0).ok
+    try:
+        assert states()[ARM] == "stopped" and states()["pos_joint_traj_controller"] == "running"
+        arm = claimed[ARM]
+        here = _positions(ros)
+        goal = _goal(ros, arm, [[here[j] for j in arm]], [0.5])
+        state, result = _send(ros, ARM, goal)  # a stopped JTC rejects every goal with INVALID_GOAL
+        assert state == GoalStatus.REJECTED
+        assert result.error_code == ros["msgs"].FollowJointTrajectoryResult.INVALID_GOAL
+        moved = [here[arm[0]] + 0.1, *[here[j] for j in arm[1:]]]
+        state, _ = _send(ros, "pos_joint_traj_controller", _goal(ros, arm, [moved], [1.0]))
+        assert state == GoalStatus.SUCCEEDED
+        assert _positions(ros)[arm[0]] == pytest.approx(moved[0], abs=0.02)
+    finally:
+        assert switch([ARM], ["pos_joint_traj_controller"], strict, False, 0.0).ok
+    assert states()[ARM] == "running"
+    # The velocity group controller: switched on, its command moves the joints at that speed.
+    from std_msgs.msg import Float64MultiArray
+
+    command = rospy.Publisher("/joint_group_vel_controller/command", Float64MultiArray, queue_size=1)
+    wait_for(lambda: command.get_num_connections(), 20, "the velocity command subscriber")
+    assert switch(["joint_group_vel_controller"], [ARM], strict, False, 0.0).ok
+    try:
+        before = _positions(ros)[arm[0]]
+        command.publish(Float64MultiArray(data=[0.5]))  # wrong size: refused
+        rospy.sleep(0.5)
+        assert abs(_positions(ros)[arm[0]] - before) < 2e-3
+        start = rospy.Time.now().to_sec()
+        command.publish(Float64MultiArray(data=[0.2, 0, 0, 0, 0, 0]))
+        rospy.sleep(1.0)
+        command.publish(Float64MultiArray(data=[0.0] * 6))
+        elapsed = rospy.Time.now().to_sec() - start
+        rospy.sleep(0.5)
+        moved = _positions(ros)[arm[0]] - before
+        assert moved == pytest.approx(0.2 * elapsed, abs=0.05), (moved, elapsed)
+    finally:
+        assert switch([ARM], ["joint_group_vel_controller"], strict, False, 0.0).ok
+    assert states()["joint_group_vel_controller"] == "stopped"

@@ -1,0 +1,92 @@
+"""The ROS node under abuse: 1000 malformed or random goals and raw garbage on its sockets, /command
+flooded at 500 Hz for 10 s, a client killed mid-goal. After each, the node still serves (a valid goal
+succeeds, /joint_states flows) and its resident memory grows by less than 10 MB over the module.
+
+One node (svh_right, real-time pace) on its own master serves the module (about 40 s in all); each
+check's client runs in its own process (tests/ros/abuse.py), as rospy binds one master per process.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from svhdesc.ros.system import ros_available
+from tests.rosmaster import master, stop, svhdesc_executable, wait_for
+from tests.support import TESTS
+
+pytestmark = [
+    pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed"),
+    pytest.mark.slow,
+]
+
+VARIANT = "svh_right"
+ABUSE = TESTS / "ros" / "abuse.py"
+MEMORY_LIMIT_KB = 10 * 1024
+
+
+def rss_kb(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise AssertionError(f"no VmRSS for {pid}")
+
+
+def abuse(node: dict[str, Any], check: str) -> dict[str, Any]:
+    result = subprocess.run([sys.executable, str(ABUSE), check], capture_output=True, text=True, timeout=240)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
+    assert node["process"].poll() is None, "the node died"
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def node(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    from svhdesc.ros.system import import_ros
+
+    import_ros()
+    import rosgraph
+
+    home = tmp_path_factory.mktemp("roshome")
+    with master(home):
+        process = subprocess.Popen(
+            [svhdesc_executable(), "sim", VARIANT, "--ros", "--realtime"],
+            stdout=(home / "node.out").open("w"),
+            stderr=subprocess.STDOUT,
+        )
+        try:
+            topics = lambda: [t for t, _ in rosgraph.Master("/svhdesc_test").getPublishedTopics("")]  # noqa: E731
+            wait_for(lambda: "/joint_states" in topics(), 60, "/joint_states")
+            info = {"process": process, "home": home}
+            abuse(info, "valid")  # warm: every code path the checks use has run once
+            info["rss_start"] = rss_kb(process.pid)
+            yield info
+        finally:
+            stop(process)
+
+
+def test_a_thousand_bad_goals_then_a_good_one(node: dict[str, Any]) -> None:
+    report = abuse(node, "goals")
+    assert report["answered"] >= 990 and set(report["codes"]) <= {0, -1, -2}
+
+
+def test_command_flooded_at_500_hz_for_10_s(node: dict[str, Any]) -> None:
+    report = abuse(node, "flood")
+    assert report["rate"] > 400 and report["joint_states"] > 30  # of its 50 Hz, through the flood
+
+
+def test_a_client_killed_mid_goal(node: dict[str, Any]) -> None:
+    abuse(node, "killed")
+
+
+def test_memory_grew_less_than_10_mb(node: dict[str, Any]) -> None:
+    """Runs last (file order): everything above has happened to the node by now."""
+    abuse(node, "valid")
+    grown = rss_kb(node["process"].pid) - node["rss_start"]
+    print(f"node RSS grew by {grown / 1024:.1f} MB")
+    assert grown < MEMORY_LIMIT_KB, f"{grown / 1024:.1f} MB"
