@@ -6,7 +6,7 @@ from typing import Any
 
 from svhdesc.polynomial import image, linearise
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import Equality, ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
 from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 SPEC_TOL = 1e-9
@@ -87,7 +87,7 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
     ]
 
 
-def _expected_line(model: Any, eq: Equality) -> tuple[tuple[float, float], str | None]:
+def _expected_line(model: Any, eq: Any) -> tuple[tuple[float, float], str | None]:
     """(offset, multiplier) the URDF <mimic> must carry for the equality; and a note where it is only the
     polynomial's least-squares line (URDF <mimic> is linear; the build writes that line over the channel range)."""
     if any(c != 0.0 for c in eq.coeffs[2:]):

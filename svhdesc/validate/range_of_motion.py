@@ -16,7 +16,7 @@ import numpy as np
 from svhdesc.polynomial import polyval
 from svhdesc.validate.collision_fidelity import hand_prefix
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import Equality, ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
 from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
@@ -106,7 +106,7 @@ class _Strokes:
     data: Any
     home: int  # keyframe id, < 0 where there is none
     hand_dofs: np.ndarray  # the channels' dofs: a stroke ends once they are still
-    equalities: list[Equality]
+    equalities: list[Any]  # validate.pair.Equality
     actuator_of: dict[str, int]  # joint -> actuator
     prefix: str
 

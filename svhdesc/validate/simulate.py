@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import Equality, ModelPair, joint_equalities
+from svhdesc.validate.pair import ModelPair, joint_equalities
 from svhdesc.validate.report import FAIL, Check, fmt, not_run, verdict
 
 DURATION = 10.0  # s of simulated time
@@ -86,14 +86,14 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
 class _Tracking:
     """Each coupled joint's worst distance from its polynomial of its channel (Horner over padded coefficients)."""
 
-    equalities: list[Equality]
+    equalities: list[Any]  # validate.pair.Equality
     coupled: np.ndarray  # qpos addresses of the coupled joints
     leaders: np.ndarray  # and of their channels
     coeffs: np.ndarray  # equalities x 5
     worst: np.ndarray
 
     @classmethod
-    def of(cls, model: Any, equalities: list[Equality]) -> _Tracking:
+    def of(cls, model: Any, equalities: list[Any]) -> _Tracking:
         coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
         leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
         coeffs = np.zeros((len(equalities), 5))
