@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import image, linearise
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 SPEC_TOL = 1e-9
@@ -36,7 +37,7 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
     if missing:
         return [missing]
     assert pair.urdf is not None
-    equalities = joint_equalities(pair.model)
+    equalities = couplings(pair.model)
     mimics = {j.name: j.mimic for j in pair.urdf.joints.values() if j.mimic is not None}
     problems, notes, worst, figures = [], [], 0.0, {}
     for eq in equalities:
@@ -44,12 +45,12 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         if mimic is None:
             problems.append(f"{eq.joint}: MJCF equality {eq.name} but no URDF <mimic>")
             continue
-        if mimic[0] != eq.channel:
-            problems.append(f"{eq.joint}: URDF mimics {mimic[0]}, MJCF couples it to {eq.channel}")
+        if mimic[0] != eq.leader:
+            problems.append(f"{eq.joint}: URDF mimics {mimic[0]}, MJCF couples it to {eq.leader}")
             continue
         if any(c != 0.0 for c in eq.coeffs[2:]):
             # URDF <mimic> is linear: the build writes the least-squares line over the channel range.
-            low, high = channel_range(pair.model, eq.channel)
+            low, high = channel_range(pair.model, eq.leader)
             expected = linearise(eq.coeffs, low, high)
             notes.append(
                 f"{eq.joint}: polynomial of order > 1; the URDF carries its least-squares line over [{low:g}, {high:g}]"
@@ -103,8 +104,8 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
     assert pair.urdf is not None
     model = pair.model
     problems, worst, figures = [], 0.0, {}
-    for eq in joint_equalities(model):
-        low, high = channel_range(model, eq.channel)
+    for eq in couplings(model):
+        low, high = channel_range(model, eq.leader)
         img_low, img_high = image(eq.coeffs, low, high)
         limits = {}
         joint_id = model.joint(eq.joint).id
@@ -114,7 +115,7 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
         if urdf_joint is not None and urdf_joint.lower is not None:
             limits["URDF limit"] = (urdf_joint.lower, urdf_joint.upper)
         figures[eq.joint] = {
-            "channel": eq.channel,
+            "channel": eq.leader,
             "channel_range": [low, high],
             "image": [img_low, img_high],
             **{k.replace(" ", "_"): list(v) for k, v in limits.items()},
@@ -125,7 +126,7 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
             if excess > LIMIT_TOL:
                 problems.append(
                     f"{eq.joint}: {where} [{lower:.6g}, {upper:.6g}] cannot hold [{img_low:.6g}, "
-                    f"{img_high:.6g}], the image of {eq.channel} [{low:.6g}, {high:.6g}]"
+                    f"{img_high:.6g}], the image of {eq.leader} [{low:.6g}, {high:.6g}]"
                 )
     detail = "; ".join(problems) or f"{len(figures)} coupled joints"
     return [

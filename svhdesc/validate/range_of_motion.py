@@ -12,10 +12,11 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.collision_fidelity import hand_prefix
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
@@ -63,7 +64,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     if prefix is None:
         return [not_run("range_of_motion", "no SVH hand in the model", bound)]
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
-    equalities = joint_equalities(model)
+    equalities = couplings(model)
     actuator_of = {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)}
     hand_dofs = np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int)
     home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
@@ -78,7 +79,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         joint = model.joint(name).id
         adr, actuator = int(model.jnt_qposadr[joint]), actuator_of[name]
         tol = TOLERANCE * (high - low)
-        followers = [e for e in equalities if e.channel == name]
+        followers = [e for e in equalities if e.leader == name]
         moving = set().union(
             _subtree(model, int(model.jnt_bodyid[joint])),
             *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),

@@ -12,8 +12,9 @@ from typing import Any
 
 from lxml import etree
 
+from svhdesc.model import couplings
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, summary, verdict
 
 LIMIT_TOL = 1e-9
@@ -40,7 +41,7 @@ def _mjcf_problems(m: Any) -> list[str]:  # m: mujoco.MjModel
             problems.append(f"actuator {name}: forcerange [{low:g}, {high:g}] must hold zero strictly inside")
         if m.actuator_gainprm[i, 0] < 0:
             problems.append(f"actuator {name}: gain {m.actuator_gainprm[i, 0]:g} must be >= 0")
-    coupled = {eq.joint for eq in joint_equalities(m)}
+    coupled = {eq.joint for eq in couplings(m)}
     limited: dict[int, tuple[float, float]] = {}
     for j in range(m.njnt):
         joint = m.joint(j)

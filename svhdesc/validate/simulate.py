@@ -6,8 +6,9 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import couplings
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import FAIL, Check, fmt, not_run, verdict
 
 DURATION = 10.0  # s of simulated time
@@ -51,9 +52,9 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
     data, rng, low, high = random_target_start(model, options.seed)
     steps = int(round(DURATION / model.opt.timestep))
     period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
-    equalities = joint_equalities(model)
+    equalities = couplings(model)
     coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
-    leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
+    leaders = np.array([model.jnt_qposadr[model.joint(e.leader).id] for e in equalities], dtype=int)
     coeffs = np.zeros((len(equalities), 5))
     for i, e in enumerate(equalities):
         coeffs[i, : len(e.coeffs)] = e.coeffs
