@@ -18,6 +18,7 @@ from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
 from svhdesc.model import couplings
 from svhdesc.plan.config import MoveItConfig
+from svhdesc.polynomial import polyval
 from svhdesc.sim.objects import Obstacle, add_objects
 
 # Pairs that touch in the state a query starts from (by up to 0.5 mm: measured states, e.g. fingers resting on
@@ -54,7 +55,6 @@ class CollisionScene:
         self._coupled, self._channel = coupled, channel
         self._coupled0, self._channel0 = model.qpos0[coupled].copy(), model.qpos0[channel].copy()
         self._poly = np.array([c.coeffs for c in found], dtype=float).reshape(len(found), 5)
-        self._powers = np.arange(5)
         self.checks = 0
         self.touching: frozenset = frozenset()
 
@@ -75,7 +75,7 @@ class CollisionScene:
     def _couple(self) -> None:
         qpos = self.data.qpos
         x = qpos[self._channel] - self._channel0
-        qpos[self._coupled] = self._coupled0 + (self._poly * x[:, None] ** self._powers).sum(axis=1)
+        qpos[self._coupled] = self._coupled0 + polyval(self._poly.T, x)  # one row of coefficients per power
 
     def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
         """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""

@@ -13,6 +13,7 @@ import numpy as np
 
 from svhdesc.ir import Channel
 from svhdesc.model import couplings
+from svhdesc.polynomial import polyval
 from svhdesc.validate.pair import ModelPair
 
 # Distal link of each finger, by the channel that moves it (the vendor's link letters).
@@ -67,7 +68,7 @@ def set_channels(model: Any, data: Any, hand: Hand, targets: dict[str, float]) -
         data.qpos[model.jnt_qposadr[joint]] = q
         data.ctrl[hand.actuators[channel]] = q
         for follower, coeffs in hand.followers[joint]:
-            data.qpos[model.jnt_qposadr[follower]] = sum(c * q**k for k, c in enumerate(coeffs))
+            data.qpos[model.jnt_qposadr[follower]] = polyval(coeffs, q)
     data.qvel[:] = 0.0
 
 
