@@ -1,16 +1,14 @@
 """THE contract for a built model: what the runtime (loaders, sim, ros, plan, compare, wireloop, batch) and
-``svhdesc.validate`` may know of one, and the only module of theirs that reaches into the compiler.
+``svhdesc.validate`` may know of one. It is the one module through which they reach the compiler (lazily, inside
+functions; tests/test_layout.py holds every other runtime module to it).
 
-- the driver's interface names, shared with the exporters (ROS/MoveIt config) and the node;
-- ``Model``, ``get()``, ``variants()``: a built variant's folder and files (and its manifest, the configuration that
-  built it, its meshes as local files);
-- what a compiled MuJoCo model holds: scalar joints, joint actuators, couplings (one ``Coupling`` type, evaluated
-  with ``svhdesc.polynomial.polyval``), and the URDF's ``<mimic>`` couplings;
-- the batch model's promises (options, capacities), shared with its exporter;
-- the vendor sources as the compiler reads them (xacro expansion, meshes), for checks against the vendor geometry.
-
-SCHUNK's ROS 1 SVH driver runs a JointTrajectoryController `<prefix>_controller` over its nine
-channels; ur_robot_driver runs `scaled_pos_joint_traj_controller` over the six arm joints.
+- the real drivers' interface names, shared with the exporters (ROS/MoveIt config) and the node;
+- ``Model``, ``get()``, ``variants()``: a built variant's folder and files, its manifest, its meshes as local files,
+  and the ``Configuration`` that built it (the config's typed settings, read-only);
+- what a compiled MuJoCo model holds: scalar joints, joint actuators, couplings; and a URDF's ``<mimic>`` couplings:
+  one ``Coupling`` type, evaluated with ``svhdesc.polynomial.polyval``;
+- the batch model's promises (solver options, tolerance, hull size), shared with its exporter;
+- the vendor sources as the build reads them (xacro, meshes), for checks against the vendor's own geometry.
 """
 
 from __future__ import annotations
@@ -36,6 +34,10 @@ if TYPE_CHECKING:
     from svhdesc.ir import Channel
 
 DEFAULT_VARIANT = "ur5_svh_right"
+
+# --- The real drivers' interface names ------------------------------------------------------------------------------
+# SCHUNK's ROS 1 SVH driver runs a JointTrajectoryController `<prefix>_controller` over its nine channels;
+# ur_robot_driver runs `scaled_pos_joint_traj_controller` over the six arm joints.
 
 # The SVH driver's channels, in its order; the hand's actuated joints are named <prefix>_<channel>.
 DRIVER_CHANNELS = (
