@@ -45,8 +45,8 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         if mimic is None:
             problems.append(f"{eq.joint}: MJCF equality {eq.name} but no URDF <mimic>")
             continue
-        if mimic[0] != eq.leader:
-            problems.append(f"{eq.joint}: URDF mimics {mimic[0]}, MJCF couples it to {eq.leader}")
+        if mimic.leader != eq.leader:
+            problems.append(f"{eq.joint}: URDF mimics {mimic.leader}, MJCF couples it to {eq.leader}")
             continue
         if any(c != 0.0 for c in eq.coeffs[2:]):
             # URDF <mimic> is linear: the build writes the least-squares line over the channel range.
@@ -57,11 +57,11 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
             )
         else:
             expected = (eq.coeffs[0], eq.coeffs[1])
-        error = max(abs(mimic[2] - expected[0]), abs(mimic[1] - expected[1]))
+        error = max(abs(mimic.offset - expected[0]), abs(mimic.multiplier - expected[1]))
         figures[eq.joint] = {
             "mjcf_polycoef": list(eq.coeffs),
-            "urdf_offset": mimic[2],
-            "urdf_multiplier": mimic[1],
+            "urdf_offset": mimic.offset,
+            "urdf_multiplier": mimic.multiplier,
             "expected_offset": expected[0],
             "expected_multiplier": expected[1],
             "error": error,
@@ -69,20 +69,20 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         worst = max(worst, error)
         if error > SPEC_TOL:
             problems.append(
-                f"{eq.joint}: URDF offset {mimic[2]:.9g} multiplier {mimic[1]:.9g}, MJCF polynomial "
+                f"{eq.joint}: URDF offset {mimic.offset:.9g} multiplier {mimic.multiplier:.9g}, MJCF polynomial "
                 f"gives offset {expected[0]:.9g} multiplier {expected[1]:.9g}"
             )
         plugin = pair.urdf.mimic_plugins.get(eq.joint)
         if plugin is not None:
-            plugin_error = max(abs(plugin[1] - mimic[1]), abs(plugin[2] - mimic[2]))
-            if plugin[0] != mimic[0] or plugin_error > SPEC_TOL:
+            plugin_error = max(abs(plugin.multiplier - mimic.multiplier), abs(plugin.offset - mimic.offset))
+            if plugin.leader != mimic.leader or plugin_error > SPEC_TOL:
                 problems.append(
-                    f"{eq.joint}: Gazebo mimic plugin ({plugin[0]} x{plugin[1]:.9g} "
-                    f"+{plugin[2]:.9g}) differs from the URDF <mimic>"
+                    f"{eq.joint}: Gazebo mimic plugin ({plugin.leader} x{plugin.multiplier:.9g} "
+                    f"+{plugin.offset:.9g}) differs from the URDF <mimic>"
                 )
     coupled = {eq.joint for eq in equalities}
     for joint in sorted(set(mimics) - coupled):
-        problems.append(f"{joint}: URDF <mimic> of {mimics[joint][0]} but no MJCF joint equality")
+        problems.append(f"{joint}: URDF <mimic> of {mimics[joint].leader} but no MJCF joint equality")
     detail = "; ".join(problems + notes) or f"{len(equalities)} couplings agree"
     return [
         Check(

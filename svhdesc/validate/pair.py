@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from svhdesc.model import Configuration, Model
+from svhdesc.model import Configuration, Coupling, Model
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
@@ -46,7 +46,7 @@ class UrdfJoint:
     axis: np.ndarray
     lower: float | None
     upper: float | None
-    mimic: tuple[str, float, float] | None  # (channel joint, multiplier, offset)
+    mimic: Coupling | None  # the <mimic>: offset and multiplier of its leader
 
     @property
     def movable(self) -> bool:
@@ -68,8 +68,8 @@ class UrdfFacts:
     links: dict[str, UrdfInertial | None]
     joints: dict[str, UrdfJoint]
     transmissions: dict[str, list[str]]  # transmission name -> joint names
-    # Gazebo mimic plugin: coupled joint -> (channel, multiplier, offset)
-    mimic_plugins: dict[str, tuple[str, float, float]]
+    # Gazebo mimic plugin: coupled joint -> its coupling (offset, multiplier)
+    mimic_plugins: dict[str, Coupling]
     meshes: list[str]
 
     @property
@@ -106,10 +106,10 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
         lower = upper = None
         if limit is not None and joint.get("type") != "continuous":
             lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
-        mimic_tuple = None
+        coupling = None
         if mimic is not None:
-            multiplier, offset = float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0))
-            mimic_tuple = (mimic.get("joint"), multiplier, offset)
+            coeffs = (float(mimic.get("offset", 0.0)), float(mimic.get("multiplier", 1.0)))
+            coupling = Coupling(joint.get("name"), mimic.get("joint"), coeffs)
         joints[joint.get("name")] = UrdfJoint(
             name=joint.get("name"),
             type=joint.get("type"),
@@ -120,7 +120,7 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
             axis=_floats(axis.get("xyz") if axis is not None else None, (1, 0, 0)),
             lower=lower,
             upper=upper,
-            mimic=mimic_tuple,
+            mimic=coupling,
         )
     transmissions = {
         t.get("name", ""): [j.get("name") for j in t.findall("joint")] for t in root.findall("transmission")
@@ -129,11 +129,8 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
     for plugin in root.iter("plugin"):
         mimic_joint, channel = plugin.findtext("mimicJoint"), plugin.findtext("joint")
         if mimic_joint and channel:
-            plugins[mimic_joint.strip()] = (
-                channel.strip(),
-                float(plugin.findtext("multiplier") or 1.0),
-                float(plugin.findtext("offset") or 0.0),
-            )
+            coeffs = (float(plugin.findtext("offset") or 0.0), float(plugin.findtext("multiplier") or 1.0))
+            plugins[mimic_joint.strip()] = Coupling(mimic_joint.strip(), channel.strip(), coeffs)
     meshes = [m.get("filename", "") for m in root.iter("mesh")]
     return UrdfFacts(root.get("name", ""), links, joints, transmissions, plugins, meshes)
 
