@@ -1,10 +1,43 @@
-"""Names the real drivers use, shared by the exporters (ROS/MoveIt config) and the runtime (node).
+"""THE contract for a built model: what the runtime (loaders, sim, ros, plan, compare, wireloop, batch) and
+``svhdesc.validate`` may know of one. It is the one module through which they reach the compiler (lazily, inside
+functions; tests/test_layout.py holds every other runtime module to it).
 
-SCHUNK's ROS 1 SVH driver runs a JointTrajectoryController `<prefix>_controller` over its nine
-channels; ur_robot_driver runs `scaled_pos_joint_traj_controller` over the six arm joints.
+- the real drivers' interface names, shared with the exporters (ROS/MoveIt config) and the node;
+- ``Model``, ``get()``, ``variants()``: a built variant's folder and files, its manifest, its meshes as local files,
+  and the ``Configuration`` that built it (the config's typed settings, read-only);
+- what a compiled MuJoCo model holds: scalar joints, joint actuators, couplings; and a URDF's ``<mimic>`` couplings:
+  one ``Coupling`` type, evaluated with ``svhdesc.polynomial.polyval``;
+- the batch model's promises (solver options, tolerance, hull size), shared with its exporter;
+- the vendor sources as the build reads them (xacro, meshes), for checks against the vendor's own geometry.
 """
 
 from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from svhdesc.errors import SvhdescError
+from svhdesc.paths import default_config, generated_dir, source_root
+from svhdesc.polynomial import polyval
+
+if TYPE_CHECKING:
+    import trimesh
+    from lxml import etree
+
+    from svhdesc.ir import Channel
+
+DEFAULT_VARIANT = "ur5_svh_right"
+
+# --- The real drivers' interface names ------------------------------------------------------------------------------
+# SCHUNK's ROS 1 SVH driver runs a JointTrajectoryController `<prefix>_controller` over its nine channels;
+# ur_robot_driver runs `scaled_pos_joint_traj_controller` over the six arm joints.
 
 # The SVH driver's channels, in its order; the hand's actuated joints are named <prefix>_<channel>.
 DRIVER_CHANNELS = (
@@ -73,3 +106,268 @@ CONTROLLER_TYPES = {
     ARM_VELOCITY_CONTROLLER: "velocity_controllers/JointGroupVelocityController",
     "hand": "position_controllers/JointTrajectoryController",
 }
+
+# --- The batch model (svhdesc.batch, MuJoCo Warp / MJX): what its exporter promises, what validate holds it to ---
+
+BATCH_SCENE_FILE = "scene_batch.xml"
+BATCH_OPTIONS = {"solver": "Newton", "cone": "elliptic", "integrator": "implicitfast"}
+BATCH_TOLERANCE = 1e-6  # MuJoCo Warp's floor for opt.tolerance (float32)
+BATCH_MAX_HULL_VERTICES = 20  # a hull this small cannot have a face above MJX's 20-vertex limit
+
+
+def batch_model_file(name: str) -> str:
+    return f"{name}_batch.xml"
+
+
+# --- A built variant: its folder and files ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Model:
+    name: str
+    directory: Path
+
+    @property
+    def urdf_path(self) -> Path:
+        return self.directory / f"{self.name}.urdf"
+
+    @property
+    def mjcf_path(self) -> Path:
+        return self.directory / f"{self.name}.xml"
+
+    @property
+    def scene_path(self) -> Path:
+        return self.directory / "scene.xml"
+
+    @property
+    def batch_path(self) -> Path:
+        """The batch model for MuJoCo Warp / MJX (svhdesc.batch)."""
+        return self.directory / batch_model_file(self.name)
+
+    @property
+    def batch_scene_path(self) -> Path:
+        return self.directory / BATCH_SCENE_FILE
+
+    @property
+    def package_name(self) -> str:
+        """The ROS package this folder is (put its parent on ROS_PACKAGE_PATH)."""
+        from svhdesc.compiler.source.packages import package_name_of
+
+        return package_name_of(self.directory) or self.name
+
+    def mesh_file(self, uri: str) -> Path | None:
+        """A mesh URI of this model as a local file: package:// of this folder's package or of one on
+        ROS_PACKAGE_PATH (model:// alike), file://, absolute and relative paths. None if nothing resolves it."""
+        from svhdesc.compiler.source.packages import local_mesh_path
+
+        return local_mesh_path(uri, self.directory)
+
+    def urdf_text(self, uris: Literal["package", "file", "path"] = "package") -> str:
+        """The URDF with mesh URIs as shipped (package://), as file:// URIs, or as plain absolute paths."""
+        text = self.urdf_path.read_text()
+        if uris == "package":
+            return text
+        if uris not in ("file", "path"):
+            raise ValueError(f"uris must be 'package', 'file' or 'path', not {uris!r}")
+        from lxml import etree
+
+        tree = etree.fromstring(text.encode())
+        for compiler in tree.iterfind("mujoco/compiler[@meshdir]"):  # MuJoCo's importer, from anywhere too
+            compiler.set("meshdir", str((self.directory / compiler.get("meshdir")).resolve()))
+        for mesh in tree.iter("mesh"):
+            path = self.mesh_file(mesh.get("filename", ""))
+            if path is not None:
+                absolute = path.resolve()
+                mesh.set("filename", absolute.as_uri() if uris == "file" else str(absolute))
+        return etree.tostring(tree, xml_declaration=True, encoding="utf-8").decode()
+
+    def absolute_urdf_path(self, uris: Literal["file", "path"] = "path") -> Path:
+        """A URDF file whose meshes are absolute (for pybullet, pinocchio, Drake, DART without ROS), cached by
+        content under $XDG_CACHE_HOME/svhdesc/urdf; the shipped files stay untouched."""
+        text = self.urdf_text(uris)
+        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "svhdesc" / "urdf"
+        path = cache / f"{self.name}-{digest}.urdf"
+        if not path.is_file():
+            cache.mkdir(parents=True, exist_ok=True)
+            with tempfile.NamedTemporaryFile("w", dir=cache, delete=False, suffix=".tmp") as handle:
+                handle.write(text)
+            os.replace(handle.name, path)  # atomic: a reader never sees half a file
+        return path
+
+    def manifest(self) -> dict[str, Any] | None:
+        """The build's manifest.json (every input, output and tool by hash); None where there is none."""
+        from svhdesc.compiler.build import manifest
+
+        return manifest.read(self.directory)
+
+    def configuration(self, config: Path | None = None) -> Configuration | None:
+        """What the config that built this model says: the variant of this name in ``config``, else in the
+        default config or a config the manifest names (package://svhdesc/config/...). None where none does."""
+        from svhdesc.compiler.settings.config import load_config
+
+        for candidate in [config] if config else [default_config(), *self._manifest_configs()]:
+            try:
+                variants = load_config(candidate).variants
+            except SvhdescError:
+                continue
+            if self.name in variants:
+                variant = variants[self.name]
+                return Configuration(variant.name, variant.config_dir, dict(variant.args), variant.sections)
+        return None
+
+    def _manifest_configs(self) -> list[Path]:
+        inputs = (self.manifest() or {}).get("inputs", {})
+        paths = []
+        for uri in inputs:
+            if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
+                path = source_root() / uri.removeprefix("package://svhdesc/")
+                if path.is_file() and path != default_config():
+                    paths.append(path)
+        return paths
+
+
+def variants() -> list[str]:
+    root = generated_dir()
+    return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.xml").is_file()) if root.is_dir() else []
+
+
+def get(name: str) -> Model:
+    if name not in variants():
+        raise KeyError(f"unknown variant {name!r}; available: {', '.join(variants())}")
+    return Model(name, generated_dir() / name)
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """The runtime's read-only view of the config variant that built a model."""
+
+    variant: str
+    config_dir: Path
+    args: Mapping[str, str]  # the xacro arguments
+    settings: Any  # the typed sections (svhdesc.compiler.settings.schema.Settings): .hand, .mass, .grasps, ...
+
+    def channels(self) -> dict[str, Channel]:
+        """The coupling spec's channels (the real driver's motors), by unprefixed name."""
+        from svhdesc.compiler.settings.coupling import load_spec
+
+        spec = load_spec(Path(self.config_dir) / str(self.settings.coupling))
+        return {c.name: c for c in spec.channels}
+
+
+# --- What a compiled model holds: joints, actuators, couplings ----------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """A coupled joint follows its leader (a driver channel): q_joint = sum(coeffs[k] * q_leader**k).
+
+    Read from a MuJoCo joint equality (``name``: the equality's; five coefficients, about qpos0 = 0 as every built
+    model has it) or from a URDF ``<mimic>`` (two: offset, multiplier)."""
+
+    joint: str
+    leader: str
+    coeffs: tuple[float, ...]  # constant term first
+    name: str = ""
+
+    def value(self, q: np.ndarray | float) -> np.ndarray | float:
+        return polyval(self.coeffs, q)
+
+    @property
+    def linear(self) -> bool:
+        return not any(self.coeffs[2:])
+
+    @property
+    def offset(self) -> float:
+        """The constant term of a linear coupling (a URDF <mimic>'s offset)."""
+        self._require_linear()
+        return self.coeffs[0] if self.coeffs else 0.0
+
+    @property
+    def multiplier(self) -> float:
+        """The slope of a linear coupling (a URDF <mimic>'s multiplier)."""
+        self._require_linear()
+        return self.coeffs[1] if len(self.coeffs) > 1 else 0.0
+
+    def _require_linear(self) -> None:
+        if not self.linear:
+            raise ValueError(f"coupling of {self.joint} is a polynomial of order > 1: no offset/multiplier")
+
+
+def scalar_joints(model: Any) -> list[int]:
+    """Hinge and slide joints of a MuJoCo model: one qpos each, what a URDF revolute/prismatic joint becomes."""
+    import mujoco
+
+    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+    return [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]
+
+
+def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
+    """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
+    import mujoco
+
+    # Compare as ints: numpy scalars and MuJoCo's enums do not meet in a tuple's `in`.
+    joint_kinds = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
+    result = {}
+    for i in range(model.nu):
+        if int(model.actuator_trntype[i]) not in joint_kinds:
+            continue
+        joint = int(model.actuator_trnid[i, 0])
+        if model.actuator_ctrllimited[i]:
+            low, high = model.actuator_ctrlrange[i]
+        else:
+            low, high = model.jnt_range[joint]
+        result[model.joint(joint).name] = (float(low), float(high))
+    return result
+
+
+def couplings(model: Any) -> list[Coupling]:
+    """A MuJoCo model's joint equalities between two joints (the coupled joint first), in model order."""
+    import mujoco
+
+    result = []
+    for i in range(model.neq):
+        if int(model.eq_type[i]) != int(mujoco.mjtEq.mjEQ_JOINT) or model.eq_obj2id[i] < 0:
+            continue
+        result.append(
+            Coupling(
+                model.joint(int(model.eq_obj1id[i])).name,
+                model.joint(int(model.eq_obj2id[i])).name,
+                tuple(float(c) for c in model.eq_data[i, :5]),
+                model.eq(i).name,
+            )
+        )
+    return result
+
+
+def urdf_couplings(urdf: Path) -> list[Coupling]:
+    """A URDF's ``<mimic>`` joints, in the URDF's order."""
+    from lxml import etree
+
+    root = etree.parse(str(urdf)).getroot()
+    return [
+        Coupling(
+            joint.get("name"),
+            mimic.get("joint"),
+            (float(mimic.get("offset", "0")), float(mimic.get("multiplier", "1"))),
+        )
+        for joint in root.iter("joint")
+        if (mimic := joint.find("mimic")) is not None
+    ]
+
+
+# --- The vendor sources as the compiler reads them (checks against the vendor's own geometry) --------------------
+
+
+def expand_source(xacro: Path, args: Mapping[str, str], packages: Mapping[str, Path]) -> etree._Element:
+    """A Xacro entry point expanded as the build expands it (no ROS installation needed)."""
+    from svhdesc.compiler.source.xacro import expand_xacro
+
+    return expand_xacro(xacro, args, packages)[0]
+
+
+def load_source_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> trimesh.Trimesh:
+    """A .dae/.stl/.obj as the build reads it: one welded mesh in metres, COLLADA frame and ``scale`` applied."""
+    from svhdesc.compiler.source.meshes import load_mesh
+
+    return load_mesh(path, scale)

@@ -16,9 +16,10 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from svhdesc.model import couplings
 from svhdesc.validate.collision_fidelity import _frame, base_qpos, check_collision_fidelity, hand_prefix, place
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import joint_equalities, load_pair
+from svhdesc.validate.pair import load_pair
 from svhdesc.validate.vendor_geometry import VendorLink, default_vendor_meshes, vendor_links
 
 NEAR = 3e-3  # m: our surface within this of a contact point is judged against the vendor part
@@ -52,7 +53,7 @@ def diagnose(folder: Path) -> list[str]:
     model: Any = pair.model
     prefix = hand_prefix(model)
     vendor = vendor_links(default_vendor_meshes(), "left" if str(prefix).startswith("left") else "right")
-    data, base, equalities = mujoco.MjData(model), base_qpos(model), joint_equalities(model)
+    data, base, equalities = mujoco.MjData(model), base_qpos(model), couplings(model)
     lines = [f"{folder.name}: {check.value}"]
     for finding in check.data.get("findings", []):
         names = finding["bodies"]

@@ -20,6 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import Coupling, couplings, scalar_joints
+from svhdesc.polynomial import polyval
+
 RAMP = 1.0  # s, home -> test control ramp
 SETTLE = 2.0  # s after the ramp before recording
 RECORD = 2.0  # s recorded
@@ -226,13 +229,6 @@ class Surface:
     direction_from: str
 
 
-@dataclass(frozen=True)
-class Coupling:
-    joint: str  # the coupled joint
-    leader: str  # the channel joint it follows
-    coeffs: tuple[float, ...]  # q_joint = sum c_i q_leader^i
-
-
 @dataclass
 class Setup:
     """Everything an engine needs to run the experiment, by joint and link name."""
@@ -255,7 +251,7 @@ class Setup:
         qpos = np.atleast_2d(qpos)
         index = {name: i for i, name in enumerate(self.joints)}
         columns = [
-            np.abs(qpos[:, index[c.joint]] - _polyval(c.coeffs, qpos[:, index[c.leader]])) for c in self.couplings
+            np.abs(qpos[:, index[c.joint]] - polyval(c.coeffs, qpos[:, index[c.leader]])) for c in self.couplings
         ]
         return np.column_stack(columns) if columns else np.zeros((len(qpos), 0))
 
@@ -276,37 +272,7 @@ class Setup:
         }
 
 
-def _polyval(coeffs: tuple[float, ...], q: np.ndarray | float) -> np.ndarray | float:
-    return sum(c * np.power(q, i) for i, c in enumerate(coeffs))
-
-
 # --- MuJoCo kinematics: where the surface goes -----------------------------------------------------------
-
-
-def scalar_joints(model: Any) -> list[int]:
-    """Hinge and slide joints: one qpos each, what a URDF revolute/prismatic joint becomes."""
-    import mujoco
-
-    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
-    return [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]
-
-
-def couplings(model: Any) -> list[Coupling]:
-    """The MJCF's joint equalities (coupled joint follows a polynomial of its channel)."""
-    import mujoco
-
-    result = []
-    for i in range(model.neq):
-        if int(model.eq_type[i]) != int(mujoco.mjtEq.mjEQ_JOINT) or model.eq_obj2id[i] < 0:
-            continue
-        result.append(
-            Coupling(
-                model.joint(int(model.eq_obj1id[i])).name,
-                model.joint(int(model.eq_obj2id[i])).name,
-                tuple(float(c) for c in model.eq_data[i, :5]),
-            )
-        )
-    return result
 
 
 def touch_site(model: Any) -> int | None:
@@ -404,7 +370,7 @@ def _direction(model: Any, data: Any, tip: int, geoms: list[int], home: int, tes
         step = 1e-3
         q[model.jnt_qposadr[channel]] += step
         for joint, coeffs in followers:
-            q[model.jnt_qposadr[joint]] = _polyval(coeffs, q[model.jnt_qposadr[channel]])
+            q[model.jnt_qposadr[joint]] = polyval(coeffs, q[model.jnt_qposadr[channel]])
         direction = (points_at(q) - at_test).mean(axis=0)
         how = f"pad direction (motion of the tip when {model.joint(channel).name} flexes)"
     norm = float(np.linalg.norm(direction))

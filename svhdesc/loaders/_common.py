@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
 from lxml import etree
 
-from svhdesc import get
 from svhdesc.extras import require as _require
+from svhdesc.model import Coupling, get, urdf_couplings
 
 
 def require(module: str, loader: str) -> ModuleType:
@@ -17,29 +16,9 @@ def require(module: str, loader: str) -> ModuleType:
     return _require(module, purpose=loader)
 
 
-@dataclass(frozen=True)
-class Coupling:
-    """joint = multiplier * leader + offset (a URDF <mimic>)."""
-
-    joint: str
-    leader: str
-    multiplier: float
-    offset: float
-
-
 def couplings(name: str) -> list[Coupling]:
-    """The variant's coupled joints, in the URDF's order."""
-    root = etree.parse(str(get(name).urdf_path)).getroot()
-    return [
-        Coupling(
-            joint.get("name"),
-            mimic.get("joint"),
-            float(mimic.get("multiplier", "1")),
-            float(mimic.get("offset", "0")),
-        )
-        for joint in root.iter("joint")
-        if (mimic := joint.find("mimic")) is not None
-    ]
+    """The variant's coupled joints (its URDF's <mimic>: offset and multiplier), in the URDF's order."""
+    return urdf_couplings(get(name).urdf_path)
 
 
 def contact_excludes(name: str) -> list[tuple[str, str]]:

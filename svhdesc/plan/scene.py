@@ -16,7 +16,9 @@ import numpy as np
 import svhdesc
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
+from svhdesc.model import couplings
 from svhdesc.plan.config import MoveItConfig
+from svhdesc.polynomial import polyval
 from svhdesc.sim.objects import Obstacle, add_objects
 
 # Pairs that touch in the state a query starts from (by up to 0.5 mm: measured states, e.g. fingers resting on
@@ -46,14 +48,13 @@ class CollisionScene:
         model = self.model
         self._qpos = {model.joint(j).name: int(model.joint(j).qposadr[0]) for j in range(model.njnt)}
         self._body = [model.body(b).name for b in range(model.nbody)]
-        # Coupled joint = poly(channel) (mjEQ_JOINT: q1 - q1_0 = sum c_k (q2 - q2_0)^k).
-        rows = [e for e in range(model.neq) if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT and model.eq_obj2id[e] >= 0]
-        coupled = model.jnt_qposadr[model.eq_obj1id[rows]]
-        channel = model.jnt_qposadr[model.eq_obj2id[rows]]
+        # Coupled joint = poly(channel) (mjEQ_JOINT: q1 - q1_0 = sum c_k (q2 - q2_0)^k), vectorised.
+        found = couplings(model)
+        coupled = np.array([model.joint(c.joint).qposadr[0] for c in found], dtype=int)
+        channel = np.array([model.joint(c.leader).qposadr[0] for c in found], dtype=int)
         self._coupled, self._channel = coupled, channel
         self._coupled0, self._channel0 = model.qpos0[coupled].copy(), model.qpos0[channel].copy()
-        self._poly = model.eq_data[rows, :5].copy()
-        self._powers = np.arange(5)
+        self._poly = np.array([c.coeffs for c in found], dtype=float).reshape(len(found), 5)
         self.checks = 0
         self.touching: frozenset = frozenset()
 
@@ -74,7 +75,7 @@ class CollisionScene:
     def _couple(self) -> None:
         qpos = self.data.qpos
         x = qpos[self._channel] - self._channel0
-        qpos[self._coupled] = self._coupled0 + (self._poly * x[:, None] ** self._powers).sum(axis=1)
+        qpos[self._coupled] = self._coupled0 + polyval(self._poly.T, x)  # one row of coefficients per power
 
     def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
         """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""

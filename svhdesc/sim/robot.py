@@ -5,19 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from svhdesc.model import DRIVER_CHANNELS
-
-
-@dataclass(frozen=True)
-class Coupling:
-    """joint = sum(coeffs[k] * channel_joint**k), read from the MJCF joint equality."""
-
-    joint: str
-    channel_joint: str
-    coeffs: tuple[float, ...]
-
-    def value(self, q: float) -> float:
-        return sum(c * q**k for k, c in enumerate(self.coeffs))
+from svhdesc.model import DRIVER_CHANNELS, Coupling, couplings, scalar_joints
 
 
 @dataclass(frozen=True)
@@ -27,18 +15,14 @@ class RobotInfo:
     hand_channels: tuple[str, ...]  # actuated hand joints, in the driver's channel order
     arm_joints: tuple[str, ...]  # every other actuated joint
     hand_prefix: str | None  # e.g. "right_hand"
-    couplings: tuple[Coupling, ...]
+    couplings: tuple[Coupling, ...]  # the MJCF's joint equalities (svhdesc.model.Coupling)
     keyframes: tuple[str, ...]
 
 
 def describe(model: Any) -> RobotInfo:
     import mujoco
 
-    joints = tuple(
-        model.joint(j).name
-        for j in range(model.njnt)
-        if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-    )
+    joints = tuple(model.joint(j).name for j in scalar_joints(model))
     actuators = []
     for a in range(model.nu):
         if int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
@@ -51,20 +35,12 @@ def describe(model: Any) -> RobotInfo:
                 by_channel[channel] = name
     hand = tuple(by_channel[c] for c in DRIVER_CHANNELS if c in by_channel)
     prefix = hand[0][: -len(DRIVER_CHANNELS[0]) - 1] if hand and hand[0].endswith(DRIVER_CHANNELS[0]) else None
-    couplings = []
-    for e in range(model.neq):
-        if int(model.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT):
-            continue
-        first, second = model.eq_obj1id[e], model.eq_obj2id[e]
-        couplings.append(
-            Coupling(model.joint(first).name, model.joint(second).name, tuple(float(c) for c in model.eq_data[e, :5]))
-        )
     return RobotInfo(
         joints=joints,
         actuators=tuple(actuators),
         hand_channels=hand,
         arm_joints=tuple(a for a in actuators if a not in hand),
         hand_prefix=prefix,
-        couplings=tuple(couplings),
+        couplings=tuple(couplings(model)),
         keyframes=tuple(model.key(k).name for k in range(model.nkey)),
     )

@@ -171,7 +171,7 @@ class Simulation:
         self.data.qpos[self._act_qpos[index]] = value
         self.data.qvel[self._act_qvel[index]] = 0.0
         for coupling in self.info.couplings:
-            if coupling.channel_joint == joint:
+            if coupling.leader == joint:
                 j = self.model.joint(coupling.joint)
                 self.data.qpos[j.qposadr[0]] = coupling.value(value)
                 self.data.qvel[j.dofadr[0]] = 0.0

@@ -3,7 +3,7 @@
 Same robot: every kinematic, inertial, coupling and actuator array of ``<variant>_batch.xml`` equals the main
 MJCF's; options and capacities are what the batch exporter promises (no noslip, Newton, elliptic,
 implicitfast, Warp's solver tolerance, no multiccd, ``<size nconmax njmax>``), and no collision hull has more
-than MAX_HULL_VERTICES vertices.
+than BATCH_MAX_HULL_VERTICES vertices.
 Warp: put_model, make_data with the stated capacities, WARP_STEPS steps of WARP_WORLDS worlds towards random
 servo targets without an overflow. MJX: put_model without a warning (it warns about hull faces above 20
 vertices). MJX's jit of a step is not run: on this CPU it takes longer than the whole validation.
@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.compiler.export.batch import MAX_HULL_VERTICES, OPTIONS, SCENE_FILE, TOLERANCE
 from svhdesc.extras import MissingExtra
+from svhdesc.model import BATCH_MAX_HULL_VERTICES, BATCH_OPTIONS, BATCH_SCENE_FILE, BATCH_TOLERANCE
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, summary, verdict
@@ -82,9 +82,9 @@ def compare_to_main(main: Any, batch: Any) -> list[str]:
     }
     for key, value in expected.items():
         if int(getattr(batch.opt, key)) != int(value):
-            problems.append(f"option {key} is not {OPTIONS[key]}")
-    if batch.opt.tolerance != TOLERANCE:
-        problems.append(f"solver tolerance {batch.opt.tolerance:g}, not the {TOLERANCE:g} MuJoCo Warp uses")
+            problems.append(f"option {key} is not {BATCH_OPTIONS[key]}")
+    if batch.opt.tolerance != BATCH_TOLERANCE:
+        problems.append(f"solver tolerance {batch.opt.tolerance:g}, not the {BATCH_TOLERANCE:g} MuJoCo Warp uses")
     if not batch.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_MULTICCD:
         problems.append("multiccd enabled (MuJoCo C and Warp choose its contacts differently)")
     if batch.nconmax <= 0 or batch.njmax <= 0:
@@ -94,8 +94,8 @@ def compare_to_main(main: Any, batch: Any) -> list[str]:
     for g in hulls:
         mesh = int(batch.geom_dataid[g])
         vertices = int(batch.mesh_graph[batch.mesh_graphadr[mesh]]) if batch.mesh_graphadr[mesh] >= 0 else 0
-        if vertices > MAX_HULL_VERTICES:
-            problems.append(f"hull {batch.mesh(mesh).name} has {vertices} vertices > {MAX_HULL_VERTICES}")
+        if vertices > BATCH_MAX_HULL_VERTICES:
+            problems.append(f"hull {batch.mesh(mesh).name} has {vertices} vertices > {BATCH_MAX_HULL_VERTICES}")
     return problems
 
 
@@ -138,7 +138,7 @@ def _engine(name: str, run: Any) -> tuple[str, Any]:
 
 def check_batch(pair: ModelPair, options: Options) -> list[Check]:
     bound = "same robot as the MJCF; Warp (CPU) steps without overflow; MJX put_model without warnings"
-    scene = Path(pair.mjcf_path).parent / SCENE_FILE
+    scene = Path(pair.mjcf_path).parent / BATCH_SCENE_FILE
     if pair.model is None:
         return [not_run("batch", "the MJCF does not compile", bound)]
     if not scene.is_file():

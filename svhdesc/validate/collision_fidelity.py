@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, verdict
 from svhdesc.validate.vendor_geometry import REFINE_BELOW, vendor_links
 
@@ -43,7 +44,7 @@ def hand_prefix(model: Any) -> str | None:
 
 
 def hand_side(pair: ModelPair, prefix: str) -> str:
-    side = pair.variant.args.get("side") if pair.variant is not None else None
+    side = pair.configuration.args.get("side") if pair.configuration is not None else None
     return str(side) if side in ("left", "right") else ("left" if prefix.startswith("left") else "right")
 
 
@@ -73,7 +74,7 @@ def place(model: Any, data: Any, base: np.ndarray, pose: dict[str, float], equal
     for name, value in pose.items():
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
     for e in equalities:
-        leader = data.qpos[model.jnt_qposadr[model.joint(e.channel).id]]
+        leader = data.qpos[model.jnt_qposadr[model.joint(e.leader).id]]
         data.qpos[model.jnt_qposadr[model.joint(e.joint).id]] = polyval(e.coeffs, leader)
     mujoco.mj_fwdPosition(model, data)
 
@@ -131,7 +132,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     judged = {b for b in range(model.nbody) if model.body(b).name.startswith(f"{prefix}_") and suffix[b] in vendor}
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
     poses = sample_poses(channels, np.random.default_rng(options.seed))
-    sweep = _Sweep(model, mujoco.MjData(model), base_qpos(model), joint_equalities(model), poses)
+    sweep = _Sweep(model, mujoco.MjData(model), base_qpos(model), couplings(model), poses)
     candidates, unjudged = _touching(sweep, judged)
     findings = []
     for bodies, hits in sorted(candidates.items()):

@@ -17,15 +17,15 @@ from typing import Any
 import numpy as np
 
 from svhdesc.compare import experiment as shared
-from svhdesc.compare.experiment import WINDOW, SetupError, mad
+from svhdesc.model import scalar_joints
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, scalar_joints
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 MAD_BOUND = 1e-9  # rad
 FORCE_CV_BOUND = 0.02  # std / mean of the normal force
 
-__all__ = ["Experiment", "SetupError", "check_contact_stability", "mad", "run_experiment"]
+__all__ = ["Experiment", "check_contact_stability", "run_experiment"]
 
 
 @dataclass
@@ -154,14 +154,14 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         return [not_run("contact_stability", "the MJCF does not compile", bound)]
     try:
         run = run_experiment(pair)
-    except SetupError as exc:
+    except shared.SetupError as exc:
         return [not_run("contact_stability", str(exc), bound)]
     if run.nan_at is not None:
         return [
             Check("contact_stability", "fail", "NaN", bound, f"NaN at t = {run.nan_at:.3f} s", {"setup": run.setup})
         ]
     recorded = run.qpos[run.record_from :]
-    deviations = mad(recorded)
+    deviations = shared.mad(recorded)
     means = recorded.mean(axis=0)
     force = _Force(run.force[run.record_from :])
     touch = run.touch[run.record_from :]
@@ -183,7 +183,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         "touch_mean_n": float(touch.mean()),
         "touch_std_n": float(touch.std()),
         "samples": int(len(force.samples)),
-        "window": WINDOW,
+        "window": shared.WINDOW,
         "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
         "setup": run.setup,
         "warnings": run.warnings,

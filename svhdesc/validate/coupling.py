@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from svhdesc.model import Coupling, actuated_joints, couplings
 from svhdesc.polynomial import image, linearise
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 SPEC_TOL = 1e-9
@@ -36,7 +37,7 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
     if missing:
         return [missing]
     assert pair.urdf is not None
-    equalities = joint_equalities(pair.model)
+    equalities = couplings(pair.model)
     mimics = {j.name: j.mimic for j in pair.urdf.joints.values() if j.mimic is not None}
     problems, notes, worst, figures = [], [], 0.0, {}
     for eq in equalities:
@@ -44,17 +45,17 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         if mimic is None:
             problems.append(f"{eq.joint}: MJCF equality {eq.name} but no URDF <mimic>")
             continue
-        if mimic[0] != eq.channel:
-            problems.append(f"{eq.joint}: URDF mimics {mimic[0]}, MJCF couples it to {eq.channel}")
+        if mimic.leader != eq.leader:
+            problems.append(f"{eq.joint}: URDF mimics {mimic.leader}, MJCF couples it to {eq.leader}")
             continue
         expected, note = _expected_line(pair.model, eq)
         if note:
             notes.append(note)
-        error = max(abs(mimic[2] - expected[0]), abs(mimic[1] - expected[1]))
+        error = max(abs(mimic.offset - expected[0]), abs(mimic.multiplier - expected[1]))
         figures[eq.joint] = {
             "mjcf_polycoef": list(eq.coeffs),
-            "urdf_offset": mimic[2],
-            "urdf_multiplier": mimic[1],
+            "urdf_offset": mimic.offset,
+            "urdf_multiplier": mimic.multiplier,
             "expected_offset": expected[0],
             "expected_multiplier": expected[1],
             "error": error,
@@ -62,18 +63,18 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         worst = max(worst, error)
         if error > SPEC_TOL:
             problems.append(
-                f"{eq.joint}: URDF offset {mimic[2]:.9g} multiplier {mimic[1]:.9g}, MJCF polynomial "
+                f"{eq.joint}: URDF offset {mimic.offset:.9g} multiplier {mimic.multiplier:.9g}, MJCF polynomial "
                 f"gives offset {expected[0]:.9g} multiplier {expected[1]:.9g}"
             )
         plugin = pair.urdf.mimic_plugins.get(eq.joint)
         if plugin is not None and not _same_mimic(plugin, mimic):
             problems.append(
-                f"{eq.joint}: Gazebo mimic plugin ({plugin[0]} x{plugin[1]:.9g} "
-                f"+{plugin[2]:.9g}) differs from the URDF <mimic>"
+                f"{eq.joint}: Gazebo mimic plugin ({plugin.leader} x{plugin.multiplier:.9g} "
+                f"+{plugin.offset:.9g}) differs from the URDF <mimic>"
             )
     coupled = {eq.joint for eq in equalities}
     for joint in sorted(set(mimics) - coupled):
-        problems.append(f"{joint}: URDF <mimic> of {mimics[joint][0]} but no MJCF joint equality")
+        problems.append(f"{joint}: URDF <mimic> of {mimics[joint].leader} but no MJCF joint equality")
     detail = "; ".join(problems + notes) or f"{len(equalities)} couplings agree"
     return [
         Check(
@@ -91,15 +92,16 @@ def _expected_line(model: Any, eq: Any) -> tuple[tuple[float, float], str | None
     """(offset, multiplier) the URDF <mimic> must carry for the equality; and a note where it is only the
     polynomial's least-squares line (URDF <mimic> is linear; the build writes that line over the channel range)."""
     if any(c != 0.0 for c in eq.coeffs[2:]):
-        low, high = channel_range(model, eq.channel)
+        low, high = channel_range(model, eq.leader)
         note = f"{eq.joint}: polynomial of order > 1; the URDF carries its least-squares line over [{low:g}, {high:g}]"
         return linearise(eq.coeffs, low, high), note
     return (eq.coeffs[0], eq.coeffs[1]), None
 
 
-def _same_mimic(plugin: tuple, mimic: tuple) -> bool:
-    """A Gazebo mimic plugin and a URDF <mimic>, both (leader, multiplier, offset), state the same coupling."""
-    return plugin[0] == mimic[0] and not max(abs(plugin[1] - mimic[1]), abs(plugin[2] - mimic[2])) > SPEC_TOL
+def _same_mimic(plugin: Coupling, mimic: Coupling) -> bool:
+    """A Gazebo mimic plugin and a URDF <mimic> state the same coupling."""
+    error = max(abs(plugin.multiplier - mimic.multiplier), abs(plugin.offset - mimic.offset))
+    return plugin.leader == mimic.leader and not error > SPEC_TOL
 
 
 def check_limits(pair: ModelPair, options: Options) -> list[Check]:
@@ -110,8 +112,8 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
     assert pair.urdf is not None
     model = pair.model
     problems, worst, figures = [], 0.0, {}
-    for eq in joint_equalities(model):
-        low, high = channel_range(model, eq.channel)
+    for eq in couplings(model):
+        low, high = channel_range(model, eq.leader)
         img_low, img_high = image(eq.coeffs, low, high)
         limits = {}
         joint_id = model.joint(eq.joint).id
@@ -121,7 +123,7 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
         if urdf_joint is not None and urdf_joint.lower is not None:
             limits["URDF limit"] = (urdf_joint.lower, urdf_joint.upper)
         figures[eq.joint] = {
-            "channel": eq.channel,
+            "channel": eq.leader,
             "channel_range": [low, high],
             "image": [img_low, img_high],
             **{k.replace(" ", "_"): list(v) for k, v in limits.items()},
@@ -132,7 +134,7 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
             if excess > LIMIT_TOL:
                 problems.append(
                     f"{eq.joint}: {where} [{lower:.6g}, {upper:.6g}] cannot hold [{img_low:.6g}, "
-                    f"{img_high:.6g}], the image of {eq.channel} [{low:.6g}, {high:.6g}]"
+                    f"{img_high:.6g}], the image of {eq.leader} [{low:.6g}, {high:.6g}]"
                 )
     detail = "; ".join(problems) or f"{len(figures)} coupled joints"
     return [

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.errors import SvhdescError
+from svhdesc.model import Model
 from svhdesc.validate.handsim import FINGERS, Hand, find_hand, set_channels
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
@@ -378,20 +379,18 @@ def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size:
 
 def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> GraspResult:
     """``svhdesc render --grasp``: the configured grasp ``name`` of a built variant (directory or MJCF)."""
-    from svhdesc.validate.pair import configured_variant
-
     mjcf = target if target.is_file() else target / f"{target.name}.xml"
-    variant = configured_variant(mjcf.stem, mjcf, None)
-    grasps = dict(variant.settings.get("grasps") or {}) if variant is not None else {}
+    configuration = Model(mjcf.stem, mjcf.parent).configuration()
+    grasps = dict(configuration.settings.grasps) if configuration is not None else {}
     if name not in grasps:
         raise SvhdescError(f"{mjcf}: no grasp '{name}' configured (grasps: {', '.join(grasps) or 'none'})")
     return grasp_picture(mjcf, name, grasps[name], out, size)
 
 
 def configured_grasps(pair: ModelPair) -> dict[str, Any] | None:
-    if pair.variant is None:
+    if pair.configuration is None:
         return None
-    return dict(pair.variant.settings.get("grasps") or {})
+    return dict(pair.configuration.settings.grasps)
 
 
 def check_grasps(pair: ModelPair, options: Options) -> list[Check]:

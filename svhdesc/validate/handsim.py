@@ -7,14 +7,14 @@ not what the build meant.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from svhdesc.compiler.settings.coupling import load_spec
 from svhdesc.ir import Channel
-from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.model import couplings
+from svhdesc.polynomial import polyval
+from svhdesc.validate.pair import ModelPair
 
 # Distal link of each finger, by the channel that moves it (the vendor's link letters).
 TIP_OF_CHANNEL = {
@@ -54,8 +54,8 @@ def find_hand(model: Any) -> Hand | None:
     if len(channels) < 9:
         return None
     followers: dict[int, list[tuple[int, tuple[float, ...]]]] = {j: [] for j in channels.values()}
-    for eq in joint_equalities(model):
-        leader = int(model.joint(eq.channel).id)
+    for eq in couplings(model):
+        leader = int(model.joint(eq.leader).id)
         if leader in followers:
             followers[leader].append((int(model.joint(eq.joint).id), eq.coeffs))
     return Hand(prefix, channels, actuators, followers)
@@ -68,7 +68,7 @@ def set_channels(model: Any, data: Any, hand: Hand, targets: dict[str, float]) -
         data.qpos[model.jnt_qposadr[joint]] = q
         data.ctrl[hand.actuators[channel]] = q
         for follower, coeffs in hand.followers[joint]:
-            data.qpos[model.jnt_qposadr[follower]] = sum(c * q**k for k, c in enumerate(coeffs))
+            data.qpos[model.jnt_qposadr[follower]] = polyval(coeffs, q)
     data.qvel[:] = 0.0
 
 
@@ -105,10 +105,7 @@ def body_vertices(model: Any, data: Any, body: int) -> np.ndarray:
 
 def configured_channels(pair: ModelPair) -> dict[str, Channel] | None:
     """The coupling spec's channels of the configuration that built ``pair`` (None if none did)."""
-    if pair.variant is None:
-        return None
-    spec = load_spec(Path(pair.variant.config_dir) / str(pair.variant.settings["coupling"]))
-    return {c.name: c for c in spec.channels}
+    return pair.configuration.channels() if pair.configuration is not None else None
 
 
 def contact_forces(model: Any, data: Any, geoms: set[int]) -> list[tuple[int, int, float]]:

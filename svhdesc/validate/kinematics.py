@@ -9,9 +9,10 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
+from svhdesc.model import actuated_joints, couplings, scalar_joints
 from svhdesc.polynomial import polyval
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities, scalar_joints
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, verdict
 
 POS_TOL = 1e-6  # m
@@ -28,7 +29,7 @@ def sample_configurations(model: Any, count: int, rng: np.random.Generator) -> l
     """Actuated joints uniform over the commanded range; coupled joints from their polynomial;
     any other hinge/slide uniform over its range (or +-pi when unlimited)."""
     actuated = actuated_joints(model)
-    equalities = joint_equalities(model)
+    equalities = couplings(model)
     coupled = {e.joint for e in equalities}
     scalar = scalar_joints(model)
     samples = []
@@ -46,7 +47,7 @@ def sample_configurations(model: Any, count: int, rng: np.random.Generator) -> l
                 low, high = -np.pi, np.pi
             q[name] = float(rng.uniform(low, high))
         for e in equalities:
-            q[e.joint] = float(polyval(e.coeffs, q.get(e.channel, 0.0)))
+            q[e.joint] = float(polyval(e.coeffs, q.get(e.leader, 0.0)))
         samples.append(q)
     return samples
 

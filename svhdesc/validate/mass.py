@@ -21,8 +21,8 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
     if pair.urdf is None:
         return [not_run("mass_budget", f"the URDF cannot be read ({pair.urdf_error})")]
     masses = {name: i.mass for name, i in pair.urdf.links.items() if i is not None}
-    variant = pair.variant
-    if variant is None:
+    configuration = pair.configuration
+    if configuration is None:
         hand = sum(m for n, m in masses.items() if fnmatch.fnmatchcase(n, HAND_PATTERN))
         rest = sum(masses.values()) - hand
         # No configuration describes this pair, so there is no budget to hold it to: report the totals.
@@ -36,10 +36,10 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
                 {"hand_kg": hand, "other_kg": rest},
             )
         ]
-    settings = variant.settings["mass"]
-    prefix = variant.hand["prefix"]
+    settings = configuration.settings.mass
+    prefix = configuration.settings.hand.prefix
     problems, parts, figures = [], [], {}
-    for budget in settings.get("budgets") or []:
+    for budget in settings.budgets:
         pattern = str(budget["links"]).format(hand=prefix)
         total = sum(m for n, m in masses.items() if fnmatch.fnmatchcase(n, pattern))
         target = float(budget["total"])
@@ -47,7 +47,7 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
         parts.append(f"{pattern} {total:.4f}/{target:g} kg")
         if abs(total - target) > BUDGET_TOL * target:
             problems.append(f"links {pattern} weigh {total:.6g} kg, budget {target:g} kg")
-    explicit = {**(settings.get("links") or {}), **{k: v["mass"] for k, v in (settings.get("inertials") or {}).items()}}
+    explicit = {**settings.links, **{k: v["mass"] for k, v in settings.inertials.items()}}
     present = {name: float(m) for name, m in explicit.items() if name in pair.urdf.links}
     if present:
         got = sum(masses.get(n, 0.0) for n in present)
@@ -57,7 +57,9 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
         for name, want_mass in present.items():
             if abs(masses.get(name, 0.0) - want_mass) > AGREE_TOL * want_mass:
                 problems.append(f"{name} weighs {masses.get(name, 0.0):.6g} kg, config says {want_mass:g} kg")
-    detail = "; ".join(problems) or f"bounds from {variant.config_dir.name}/ config, variant {variant.name}"
+    detail = (
+        "; ".join(problems) or f"bounds from {configuration.config_dir.name}/ config, variant {configuration.variant}"
+    )
     return [
         Check(
             "mass_budget",

@@ -9,10 +9,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from svhdesc.compiler.build import manifest as manifest_file
-from svhdesc.compiler.settings.config import Variant, load_config
-from svhdesc.errors import SvhdescError
-from svhdesc.paths import default_config, source_root
+from svhdesc.model import Configuration, Coupling, Model
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
@@ -49,7 +46,7 @@ class UrdfJoint:
     axis: np.ndarray
     lower: float | None
     upper: float | None
-    mimic: tuple[str, float, float] | None  # (channel joint, multiplier, offset)
+    mimic: Coupling | None  # the <mimic>: offset and multiplier of its leader
 
     @property
     def movable(self) -> bool:
@@ -71,8 +68,8 @@ class UrdfFacts:
     links: dict[str, UrdfInertial | None]
     joints: dict[str, UrdfJoint]
     transmissions: dict[str, list[str]]  # transmission name -> joint names
-    # Gazebo mimic plugin: coupled joint -> (channel, multiplier, offset)
-    mimic_plugins: dict[str, tuple[str, float, float]]
+    # Gazebo mimic plugin: coupled joint -> its coupling (offset, multiplier)
+    mimic_plugins: dict[str, Coupling]
     meshes: list[str]
 
     @property
@@ -109,10 +106,10 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
         lower = upper = None
         if limit is not None and joint.get("type") != "continuous":
             lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
-        mimic_tuple = None
+        coupling = None
         if mimic is not None:
-            multiplier, offset = float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0))
-            mimic_tuple = (mimic.get("joint"), multiplier, offset)
+            coeffs = (float(mimic.get("offset", 0.0)), float(mimic.get("multiplier", 1.0)))
+            coupling = Coupling(joint.get("name"), mimic.get("joint"), coeffs)
         joints[joint.get("name")] = UrdfJoint(
             name=joint.get("name"),
             type=joint.get("type"),
@@ -123,7 +120,7 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
             axis=_floats(axis.get("xyz") if axis is not None else None, (1, 0, 0)),
             lower=lower,
             upper=upper,
-            mimic=mimic_tuple,
+            mimic=coupling,
         )
     transmissions = {
         t.get("name", ""): [j.get("name") for j in t.findall("joint")] for t in root.findall("transmission")
@@ -132,11 +129,8 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
     for plugin in root.iter("plugin"):
         mimic_joint, channel = plugin.findtext("mimicJoint"), plugin.findtext("joint")
         if mimic_joint and channel:
-            plugins[mimic_joint.strip()] = (
-                channel.strip(),
-                float(plugin.findtext("multiplier") or 1.0),
-                float(plugin.findtext("offset") or 0.0),
-            )
+            coeffs = (float(plugin.findtext("offset") or 0.0), float(plugin.findtext("multiplier") or 1.0))
+            plugins[mimic_joint.strip()] = Coupling(mimic_joint.strip(), channel.strip(), coeffs)
     meshes = [m.get("filename", "") for m in root.iter("mesh")]
     return UrdfFacts(root.get("name", ""), links, joints, transmissions, plugins, meshes)
 
@@ -154,7 +148,7 @@ class ModelPair:
     urdf_error: str | None = None
     model: Any = None  # mujoco.MjModel
     mjcf_error: str | None = None
-    variant: Variant | None = None  # the configuration that built it, when known
+    configuration: Configuration | None = None  # what the config that built it says, when known
 
 
 def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_path: Path | None = None) -> ModelPair:
@@ -174,7 +168,7 @@ def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_
     model_name = _mjcf_model_name(mjcf_path) or pair.name
     if name is None:
         pair.name = model_name
-    pair.variant = configured_variant(model_name, mjcf_path, config_path)
+    pair.configuration = Model(model_name, mjcf_path.parent).configuration(config_path)
     return pair
 
 
@@ -183,85 +177,3 @@ def _mjcf_model_name(path: Path) -> str | None:
         return etree.parse(str(path)).getroot().get("model")
     except (OSError, etree.XMLSyntaxError):
         return None
-
-
-def configured_variant(model_name: str, mjcf_path: Path, config_path: Path | None) -> Variant | None:
-    """The variant of that name in --config, else in the default config or a config the build manifest
-    names (package://svhdesc/config/...). None for a pair no configuration describes."""
-    candidates = [config_path] if config_path else [default_config(), *_manifest_configs(mjcf_path.parent)]
-    for candidate in candidates:
-        try:
-            config = load_config(candidate)
-        except SvhdescError:
-            continue
-        if model_name in config.variants:
-            return config.variants[model_name]
-    return None
-
-
-def _manifest_configs(directory: Path) -> list[Path]:
-    manifest = manifest_file.read(directory)
-    inputs = manifest.get("inputs", {}) if manifest else {}
-    paths = []
-    for uri in inputs:
-        if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
-            path = source_root() / uri.removeprefix("package://svhdesc/")
-            if path.is_file() and path != default_config():
-                paths.append(path)
-    return paths
-
-
-# --- MJCF facts from the compiled model ---------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Equality:
-    name: str
-    joint: str  # coupled (joint1)
-    channel: str  # leader (joint2)
-    coeffs: tuple[float, ...]  # c0..c4
-
-
-def joint_equalities(model: Any) -> list[Equality]:
-    import mujoco
-
-    result = []
-    for i in range(model.neq):
-        if int(model.eq_type[i]) != int(mujoco.mjtEq.mjEQ_JOINT) or model.eq_obj2id[i] < 0:
-            continue
-        result.append(
-            Equality(
-                model.eq(i).name,
-                model.joint(int(model.eq_obj1id[i])).name,
-                model.joint(int(model.eq_obj2id[i])).name,
-                tuple(float(c) for c in model.eq_data[i, :5]),
-            )
-        )
-    return result
-
-
-def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
-    """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
-    import mujoco
-
-    # Compare as ints: numpy scalars and MuJoCo's enums do not meet in a tuple's `in`.
-    joint_kinds = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
-    result = {}
-    for i in range(model.nu):
-        if int(model.actuator_trntype[i]) not in joint_kinds:
-            continue
-        joint = int(model.actuator_trnid[i, 0])
-        if model.actuator_ctrllimited[i]:
-            low, high = model.actuator_ctrlrange[i]
-        else:
-            low, high = model.jnt_range[joint]
-        result[model.joint(joint).name] = (float(low), float(high))
-    return result
-
-
-def scalar_joints(model: Any) -> list[int]:
-    """Hinge and slide joints: one qpos each, what a URDF revolute/prismatic joint becomes."""
-    import mujoco
-
-    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
-    return [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]

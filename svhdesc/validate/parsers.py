@@ -10,7 +10,7 @@ from pathlib import Path
 
 from lxml import etree
 
-from svhdesc.compiler.source.packages import local_mesh_path
+from svhdesc.model import Model
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, verdict
@@ -34,7 +34,7 @@ def _tail(text: str, lines: int = 3) -> str:
 
 def _local_mesh(uri: str, base: Path) -> Path | None:
     """A mesh URI as a local path: the model's own package://, file://, paths (None for other schemes)."""
-    return local_mesh_path(uri, base)
+    return Model(base.name, base).mesh_file(uri)
 
 
 def check_urdfdom(pair: ModelPair, options: Options) -> list[Check]:

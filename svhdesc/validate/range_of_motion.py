@@ -13,10 +13,11 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.collision_fidelity import hand_prefix
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
@@ -69,7 +70,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         mujoco.MjData(model),
         mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home"),
         np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int),
-        joint_equalities(model),
+        couplings(model),
         {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)},
         prefix,
     )
@@ -106,7 +107,7 @@ class _Strokes:
     data: Any
     home: int  # keyframe id, < 0 where there is none
     hand_dofs: np.ndarray  # the channels' dofs: a stroke ends once they are still
-    equalities: list[Any]  # validate.pair.Equality
+    equalities: list[Any]  # svhdesc.model.Coupling
     actuator_of: dict[str, int]  # joint -> actuator
     prefix: str
 
@@ -123,7 +124,7 @@ class _Strokes:
         joint = model.joint(name).id
         adr, actuator = int(model.jnt_qposadr[joint]), self.actuator_of[name]
         tol = TOLERANCE * (high - low)
-        followers = [e for e in self.equalities if e.channel == name]
+        followers = [e for e in self.equalities if e.leader == name]
         moving = set().union(
             _subtree(model, int(model.jnt_bodyid[joint])),
             *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),

@@ -1,30 +1,19 @@
 """Offscreen render of a variant's scene.xml (visual geoms only) to a PNG.
 
-MuJoCo binds its OpenGL backend when ``mujoco`` is first imported (MUJOCO_GL), and a failed backend
-cannot be swapped in the same process. So the picture is drawn by a child process
-(``python -m svhdesc.validate.render``) per backend tried: the user's MUJOCO_GL if set, else EGL,
-then OSMesa. Debian packages: EGL needs libegl1 + libgl1-mesa-dri (software rendering without a
-GPU), OSMesa needs libosmesa6.
+The picture is drawn by a child process (``python -m svhdesc.validate.render``) per OpenGL backend tried, through
+``svhdesc.offscreen`` (backend choice, PNG writing).
 """
 
 from __future__ import annotations
 
 import math
-import os
-import struct
-import subprocess
 import sys
-import zlib
 from pathlib import Path
 from typing import Any
 
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
-
-BACKENDS = ("egl", "osmesa")
-INSTALL = "apt-get install libegl1 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
-TIMEOUT = 300  # s
-USER_ERROR = 3  # the child's exit code for a bad request (unknown keyframe, bad model), not a GL problem
+from svhdesc.offscreen import USER_ERROR, draw_png, run_child
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -47,38 +36,6 @@ def scene_file(target: Path) -> Path:
     raise SvhdescError(f"{target}: no scene.xml or {target.name}.xml (build the variant first: svhdesc build)")
 
 
-def _backend_env(backend: str) -> dict[str, str]:
-    env = dict(os.environ, MUJOCO_GL=backend)
-    if backend in BACKENDS:
-        env.setdefault("PYOPENGL_PLATFORM", backend)
-    return env
-
-
-def backends_to_try() -> list[str]:
-    user = os.environ.get("MUJOCO_GL", "").strip().lower()
-    return [user] if user else list(BACKENDS)
-
-
-def available_backends() -> list[str]:
-    """Backends that can create an offscreen GL context here (each probed in a child process)."""
-    probe = "import mujoco; c = mujoco.GLContext(16, 16); c.make_current(); c.free()"
-    working = []
-    for backend in backends_to_try():
-        try:
-            result = subprocess.run(
-                [sys.executable, "-c", probe],
-                env=_backend_env(backend),
-                capture_output=True,
-                timeout=TIMEOUT,
-                check=False,
-            )
-        except (OSError, subprocess.TimeoutExpired):
-            continue
-        if result.returncode == 0:
-            working.append(backend)
-    return working
-
-
 def render(target: Path, out: Path, keyframe: str | None, size: tuple[int, int]) -> str:
     """Render ``target`` (variant directory or XML) to ``out``; returns the GL backend used."""
     require("mujoco", "'svhdesc render'", "sim")  # before blaming OpenGL for a missing package
@@ -93,31 +50,16 @@ def render(target: Path, out: Path, keyframe: str | None, size: tuple[int, int])
         names = [model.key(k).name for k in range(model.nkey)]
         raise SvhdescError(f"{scene}: no keyframe '{keyframe}' (keyframes: {', '.join(names) or 'none'})")
     out.parent.mkdir(parents=True, exist_ok=True)
-    failures = []
-    for backend in backends_to_try():
-        command = [
-            sys.executable,
-            "-m",
-            "svhdesc.validate.render",
-            str(scene),
-            str(out),
-            keyframe or "",
-            f"{size[0]}x{size[1]}",
-        ]
-        try:
-            result = subprocess.run(
-                command, env=_backend_env(backend), capture_output=True, text=True, timeout=TIMEOUT, check=False
-            )
-        except subprocess.TimeoutExpired:
-            failures.append(f"{backend}: timed out")
-            continue
-        if result.returncode == 0:
-            return backend
-        message = (result.stderr.strip().splitlines() or ["no message"])[-1]
-        if result.returncode == USER_ERROR:
-            raise SvhdescError(message)
-        failures.append(f"{backend}: {message}")
-    raise SvhdescError(f"no offscreen OpenGL backend works here ({'; '.join(failures)}); install {INSTALL}")
+    command = [
+        sys.executable,
+        "-m",
+        "svhdesc.validate.render",
+        str(scene),
+        str(out),
+        keyframe or "",
+        f"{size[0]}x{size[1]}",
+    ]
+    return run_child(command)
 
 
 def _frame_camera(model: Any, data: Any, camera: Any) -> None:
@@ -151,13 +93,9 @@ def _fit(model: Any, camera: Any, width: int, height: int) -> None:
 def _child(scene: str, out: str, keyframe: str, size: str) -> int:
     """Runs in the child process, with MUJOCO_GL already set by the parent."""
     import mujoco
-    import numpy as np
 
     width, height = (int(v) for v in size.split("x"))
     model = mujoco.MjModel.from_xml_path(scene)
-    # The offscreen framebuffer must be at least the requested size.
-    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
     data = mujoco.MjData(model)
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe or "home")
     if keyframe and key < 0:
@@ -169,32 +107,8 @@ def _child(scene: str, out: str, keyframe: str, size: str) -> int:
     camera = mujoco.MjvCamera()
     _frame_camera(model, data, camera)
     _fit(model, camera, width, height)
-    option = mujoco.MjvOption()
-    option.geomgroup[:] = 0
-    option.geomgroup[0] = 1  # scene geoms (the floor)
-    option.geomgroup[2] = 1  # visual; collision (group 3) stays off
-    renderer = mujoco.Renderer(model, height, width)
-    try:
-        renderer.update_scene(data, camera=camera, scene_option=option)
-        pixels = np.ascontiguousarray(renderer.render())
-    finally:
-        renderer.close()
-    _write_png(Path(out), pixels)
+    draw_png(model, data, camera, Path(out), (width, height))
     return 0
-
-
-def _write_png(path: Path, pixels: Any) -> None:
-    """RGB uint8 array -> PNG with zlib alone, so rendering needs nothing beyond mujoco."""
-    height, width, _ = pixels.shape
-    raw = b"".join(b"\x00" + pixels[row].tobytes() for row in range(height))
-
-    def chunk(kind: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    path.write_bytes(
-        b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
-    )
 
 
 if __name__ == "__main__":

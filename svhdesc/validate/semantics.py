@@ -12,8 +12,9 @@ from typing import Any
 
 from lxml import etree
 
+from svhdesc.model import couplings
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, summary, verdict
 
 LIMIT_TOL = 1e-9
@@ -60,7 +61,7 @@ def _joint_problems(m: Any) -> tuple[list[str], dict[int, tuple[float, float]]]:
 
     problems = []
     driven = _driven_joints(m)
-    coupled = {eq.joint for eq in joint_equalities(m)}
+    coupled = {eq.joint for eq in couplings(m)}
     limited: dict[int, tuple[float, float]] = {}
     for j in range(m.njnt):
         joint = m.joint(j)

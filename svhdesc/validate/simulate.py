@@ -7,8 +7,9 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import couplings
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, joint_equalities
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import FAIL, Check, fmt, not_run, verdict
 
 DURATION = 10.0  # s of simulated time
@@ -48,7 +49,7 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
         ]
     model = pair.model
     data, rng, low, high = random_target_start(model, options.seed)
-    tracking = _Tracking.of(model, joint_equalities(model))
+    tracking = _Tracking.of(model, couplings(model))
     nan_at = _run_random_targets(model, data, rng, (low, high), tracking)
     warnings = warning_counts(data)
     ok = not warnings and nan_at is None
@@ -86,7 +87,7 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
 class _Tracking:
     """Each coupled joint's worst distance from its polynomial of its channel (Horner over padded coefficients)."""
 
-    equalities: list[Any]  # validate.pair.Equality
+    equalities: list[Any]  # svhdesc.model.Coupling
     coupled: np.ndarray  # qpos addresses of the coupled joints
     leaders: np.ndarray  # and of their channels
     coeffs: np.ndarray  # equalities x 5
@@ -95,7 +96,7 @@ class _Tracking:
     @classmethod
     def of(cls, model: Any, equalities: list[Any]) -> _Tracking:
         coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
-        leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
+        leaders = np.array([model.jnt_qposadr[model.joint(e.leader).id] for e in equalities], dtype=int)
         coeffs = np.zeros((len(equalities), 5))
         for i, e in enumerate(equalities):
             coeffs[i, : len(e.coeffs)] = e.coeffs

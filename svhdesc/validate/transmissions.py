@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from svhdesc.model import actuated_joints
 from svhdesc.validate.options import Options
-from svhdesc.validate.pair import ModelPair, actuated_joints
+from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, verdict
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from svhdesc.errors import SvhdescError
+from svhdesc.model import expand_source, load_source_mesh
 from svhdesc.paths import checkout_root, source_root
 from svhdesc.validate.pair import rpy_matrix
 
@@ -65,11 +66,8 @@ def vendor_links(folder: Path, side: str) -> dict[str, VendorLink]:
     import trimesh
     from scipy.spatial import cKDTree
 
-    from svhdesc.compiler.source.meshes import load_mesh
-    from svhdesc.compiler.source.xacro import expand_xacro
-
     entry = source_root() / "xacro" / "vendor" / "svh_hand.urdf.xacro"
-    root, _ = expand_xacro(entry, {"side": side}, {PACKAGE: folder})
+    root = expand_source(entry, {"side": side}, {PACKAGE: folder})
     prefix = f"{side}_hand_"
     links = {}
     for link in root.findall("link"):
@@ -82,7 +80,7 @@ def vendor_links(folder: Path, side: str) -> dict[str, VendorLink]:
             if not filename.startswith(f"package://{PACKAGE}/"):
                 raise SvhdescError(f"{filename}: vendor mesh outside package://{PACKAGE}")
             path = folder / filename.removeprefix(f"package://{PACKAGE}/")
-            part = load_mesh(path, tuple(_floats(mesh.get("scale"), (1.0, 1.0, 1.0))))
+            part = load_source_mesh(path, tuple(_floats(mesh.get("scale"), (1.0, 1.0, 1.0))))
             origin = visual.find("origin")
             transform = np.eye(4)
             if origin is not None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -31,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.errors import SvhdescError
+from svhdesc.offscreen import draw_png, run_child
 from svhdesc.wireloop.env import CCW, CW, Environment
 from svhdesc.wireloop.wiremap import WireMap, load_map
 
@@ -386,8 +386,6 @@ class _Follower:
 
 def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] = (800, 600)) -> str:
     """Draw the robot in its final pose over the wire, with the ring centre's path, in a child process."""
-    from svhdesc.validate.render import _backend_env, backends_to_try
-
     request = {
         "map": wire_map_file,
         "qpos": run.final_qpos,
@@ -396,21 +394,7 @@ def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] 
         "size": list(size),
     }
     out.parent.mkdir(parents=True, exist_ok=True)
-    failures = []
-    for backend in backends_to_try():
-        result = subprocess.run(
-            [sys.executable, "-m", "svhdesc.wireloop.mujoco_run"],
-            input=json.dumps(request),
-            env=_backend_env(backend),
-            capture_output=True,
-            text=True,
-            timeout=300,
-            check=False,
-        )
-        if result.returncode == 0:
-            return backend
-        failures.append(f"{backend}: {(result.stderr.strip().splitlines() or ['no message'])[-1]}")
-    raise SvhdescError(f"no offscreen OpenGL backend could render ({'; '.join(failures)})")
+    return run_child([sys.executable, "-m", "svhdesc.wireloop.mujoco_run"], stdin=json.dumps(request))
 
 
 def _render_child() -> int:
@@ -418,9 +402,6 @@ def _render_child() -> int:
     request = json.loads(sys.stdin.read())
     scene = Scene(load_map(request["map"]), markers=request["centres"])
     model = scene.model
-    width, height = request["size"]
-    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
     data = mujoco.MjData(model)
     data.qpos[:] = request["qpos"]
     mujoco.mj_forward(model, data)
@@ -435,19 +416,7 @@ def _render_child() -> int:
     # A wire mirrored in the floor or its shadow would read as a second wire.
     model.mat_reflectance[:] = 0.0
     model.light_castshadow[:] = 0
-    option = mujoco.MjvOption()
-    option.geomgroup[:] = 0
-    option.geomgroup[0] = 1
-    option.geomgroup[2] = 1
-    renderer = mujoco.Renderer(model, height, width)
-    try:
-        renderer.update_scene(data, camera=camera, scene_option=option)
-        pixels = np.ascontiguousarray(renderer.render())
-    finally:
-        renderer.close()
-    from svhdesc.validate.render import _write_png
-
-    _write_png(Path(request["out"]), pixels)
+    draw_png(model, data, camera, Path(request["out"]), tuple(request["size"]))
     return 0
 
 

@@ -21,6 +21,7 @@ pytest.importorskip("mujoco_warp")
 import svhdesc  # noqa: E402
 from svhdesc.batch import BatchEnv, BatchOverflow, make  # noqa: E402
 from svhdesc.compare import experiment  # noqa: E402
+from svhdesc.model import couplings  # noqa: E402
 from svhdesc.validate.batch import compare_to_main  # noqa: E402
 
 WORLDS = 16
@@ -104,7 +105,7 @@ def ramp(start: np.ndarray, goal: np.ndarray, step: int, steps: int) -> np.ndarr
 
 def coupling_residual(model, qpos: np.ndarray) -> float:
     worst = 0.0
-    for c in experiment.couplings(model):
+    for c in couplings(model):
         joint, leader = model.joint(c.joint).qposadr[0], model.joint(c.leader).qposadr[0]
         expected = sum(k * qpos[:, leader] ** i for i, k in enumerate(c.coeffs))
         worst = max(worst, float(np.abs(qpos[:, joint] - expected).max()))

@@ -81,7 +81,7 @@ def test_home_to_test_reaches_the_keyframe(home_to_test: Simulation) -> None:
         assert abs(positions[name] - target) < 2e-3, name
     assert len(sim.info.couplings) == 11
     for coupling in sim.info.couplings:
-        assert positions[coupling.joint] == pytest.approx(coupling.value(positions[coupling.channel_joint]), abs=1e-4)
+        assert positions[coupling.joint] == pytest.approx(coupling.value(positions[coupling.leader]), abs=1e-4)
     assert np.all(np.isfinite(sim.joint_state().velocities))
 
 

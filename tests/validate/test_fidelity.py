@@ -120,14 +120,14 @@ def test_all_channels_at_once_jam_the_real_fingers_too(fraction: float, overlapp
     real hand cannot take that pose either); at 30 % they are apart."""
     import mujoco
 
+    from svhdesc.model import actuated_joints, couplings
     from svhdesc.validate.collision_fidelity import _frame, base_qpos, place
-    from svhdesc.validate.pair import actuated_joints, joint_equalities
     from svhdesc.validate.vendor_geometry import vendor_links
 
     model = pair_of(GENERATED / "svh_right").model
     data = mujoco.MjData(model)
     pose = {n: lo + fraction * (hi - lo) for n, (lo, hi) in actuated_joints(model).items()}
-    place(model, data, base_qpos(model), pose, joint_equalities(model))
+    place(model, data, base_qpos(model), pose, couplings(model))
     vendor = vendor_links(VENDOR_SVH.resolve(), "right")
     fingers = [("l", "p", "t"), ("k", "o", "s"), ("j", "n", "r"), ("i", "m", "q")]
     gaps = []

@@ -282,7 +282,7 @@ def _png_size(path: Path) -> tuple[int, int]:
 
 
 def test_render_writes_png_of_the_requested_size(tmp_path: Path) -> None:
-    from svhdesc.validate.render import available_backends
+    from svhdesc.offscreen import available_backends
 
     if not available_backends():
         pytest.skip("no offscreen OpenGL backend loads here (EGL: libegl1 libgl1-mesa-dri; OSMesa: libosmesa6)")

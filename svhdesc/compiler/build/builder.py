@@ -23,6 +23,7 @@ from svhdesc.compiler.stages.batch_sizing import sample_capacities
 from svhdesc.compiler.stages.finite import check_finite
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
+from svhdesc.model import BATCH_SCENE_FILE, batch_model_file
 from svhdesc.paths import models_dir
 
 
@@ -80,10 +81,10 @@ def write_variant(
 
 def batch_outputs(robot: Robot, assets: Path) -> dict[str, bytes]:
     """The batch model and its scene, capacities sized by stepping the unsized model in MuJoCo C."""
-    name = batch_export.model_file(robot.name)
+    name = batch_model_file(robot.name)
     scene = batch_export.export_batch_scene(robot)
     capacities = sample_capacities(scene, name, batch_export.export_batch(robot, None), assets)
-    return {name: batch_export.export_batch(robot, capacities), batch_export.SCENE_FILE: scene}
+    return {name: batch_export.export_batch(robot, capacities), BATCH_SCENE_FILE: scene}
 
 
 def _prepare(

@@ -5,7 +5,7 @@ from the same tree) with what batched engines need stated instead of left to def
 
 - options both Warp and MJX implement: Newton solver, elliptic cone, implicitfast integrator, and no noslip
   pass (neither has one that matches MuJoCo C's; Warp would otherwise ignore it without a word);
-- settings MuJoCo C and Warp then share instead of each choosing its own: solver tolerance TOLERANCE (Warp
+- settings MuJoCo C and Warp then share instead of each choosing its own: solver tolerance BATCH_TOLERANCE (Warp
   raises any smaller one to it for float32), and no multi-contact convex collision (``multiccd``, on by default
   in MuJoCo C): both implement it, but they decide differently whether two hulls touch face on. At the first
   touch of middle and index finger (equivalence test, world 8) C gave two coincident contacts with a normal
@@ -23,18 +23,11 @@ from lxml import etree
 from svhdesc.compiler.export.mjcf import collision_meshes, mjcf_tree, scene_tree
 from svhdesc.compiler.export.xmlfmt import serialise
 from svhdesc.ir import Robot
+from svhdesc.model import BATCH_MAX_HULL_VERTICES, BATCH_OPTIONS, BATCH_TOLERANCE, batch_model_file
 
-MAX_HULL_VERTICES = 20  # a hull this small cannot have a face above MJX's 20-vertex limit
 SIZE_MARGIN = 2.0  # capacities = margin x the sampled worst case, rounded up to a multiple of SIZE_STEP
 SIZE_STEP = 8
-SCENE_FILE = "scene_batch.xml"
-OPTIONS = {"solver": "Newton", "cone": "elliptic", "integrator": "implicitfast"}
-TOLERANCE = 1e-6  # MuJoCo Warp's floor for opt.tolerance (float32)
 FLAGS = {"multiccd": "disable"}
-
-
-def model_file(robot_name: str) -> str:
-    return f"{robot_name}_batch.xml"
 
 
 @dataclass(frozen=True)
@@ -62,9 +55,9 @@ def batch_tree(robot: Robot, capacities: Capacities | None) -> etree._Element:
     root.set("model", f"{robot.name}_batch")
     option = root.find("option")
     option.attrib.pop("noslip_iterations", None)
-    for key, value in OPTIONS.items():
+    for key, value in BATCH_OPTIONS.items():
         option.set(key, value)
-    option.set("tolerance", f"{TOLERANCE:g}")
+    option.set("tolerance", f"{BATCH_TOLERANCE:g}")
     flag = option.find("flag")
     if flag is None:
         flag = etree.SubElement(option, "flag")
@@ -83,7 +76,7 @@ def batch_tree(robot: Robot, capacities: Capacities | None) -> etree._Element:
     hulls = collision_meshes(robot)
     for mesh in root.iterfind("asset/mesh"):
         if mesh.get("name") in hulls:
-            mesh.set("maxhullvert", str(MAX_HULL_VERTICES))
+            mesh.set("maxhullvert", str(BATCH_MAX_HULL_VERTICES))
     for cls in root.iterfind(".//default[@class='collision']/geom"):
         cls.set("contype", "1")
         cls.set("conaffinity", "1")
@@ -95,7 +88,7 @@ def export_batch(robot: Robot, capacities: Capacities | None) -> bytes:
 
 
 def export_batch_scene(robot: Robot) -> bytes:
-    root = scene_tree(robot, model_file(robot.name))
+    root = scene_tree(robot, batch_model_file(robot.name))
     root.set("model", f"{robot.name} batch scene")
     for geom in root.iterfind("worldbody/geom"):  # floor, pedestal: collide with the robot, stated
         geom.set("contype", "1")

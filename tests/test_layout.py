@@ -1,0 +1,165 @@
+"""The package's layout rules (issue 16): two wings and one contract between them.
+
+- runtime packages and validate import nothing of svhdesc.compiler (svhdesc/model.py, the contract, reaches into
+  the compiler on their behalf; cli.py drives both wings);
+- no module imports an underscore-private name (or module) of another package;
+- at most MAX_ROOT_MODULES modules at the package root;
+- one ``Coupling`` for a built model (svhdesc/model.py) beside the compiler IR's (svhdesc/ir.py).
+
+Every module under svhdesc/ is parsed with ast (nothing imported); each rule is also shown to catch a seeded
+violation in a synthetic source.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from tests.support import REPO
+
+PACKAGE = REPO / "svhdesc"
+RUNTIME = ("loaders", "sim", "ros", "plan", "compare", "wireloop", "batch", "validate")
+COMPILER_BRIDGES = {"svhdesc.model", "svhdesc.cli"}
+COUPLING_HOMES = {"svhdesc.model", "svhdesc.ir"}
+MAX_ROOT_MODULES = 10
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def package_of(module: str, is_package: bool) -> str:
+    """The package a module belongs to (a package's __init__ belongs to itself)."""
+    return module if is_package else module.rpartition(".")[0]
+
+
+def imports(tree: ast.Module, module: str, is_package: bool) -> list[tuple[str, str | None, int]]:
+    """(imported module, imported name or None, line) of every import, relative ones resolved."""
+    found: list[tuple[str, str | None, int]] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.extend((alias.name, None, node.lineno) for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package_of(module, is_package).split(".")
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join([*anchor, base] if base else anchor)
+            found.extend((base, alias.name, node.lineno) for alias in node.names)
+    return found
+
+
+def imported_package(target: str) -> str:
+    """The package holding module ``target`` (a package holds itself)."""
+    directory = PACKAGE.parent.joinpath(*target.split("."))
+    return target if (directory / "__init__.py").is_file() else target.rpartition(".")[0]
+
+
+def private_owner(target: str, name: str | None) -> tuple[str, str] | None:
+    """(private name, package owning it) where the import reaches an underscore module or name, else None."""
+    parts = target.split(".")
+    for index, part in enumerate(parts[1:], 1):
+        if part.startswith("_"):
+            return part, ".".join(parts[:index])
+    if name is not None and name.startswith("_"):
+        return name, imported_package(target)
+    return None
+
+
+def violations(source: str, module: str, is_package: bool = False) -> list[str]:
+    """What one module's source breaks of the import and Coupling rules."""
+    tree = ast.parse(source)
+    problems = []
+    wing = module.split(".")[1] if "." in module else ""
+    own_package = package_of(module, is_package)
+    for target, name, line in imports(tree, module, is_package):
+        if target != "svhdesc" and not target.startswith("svhdesc."):
+            continue
+        reaches_compiler = target == "svhdesc.compiler" or target.startswith("svhdesc.compiler.")
+        if wing in RUNTIME and module not in COMPILER_BRIDGES and reaches_compiler:
+            problems.append(f"{module}:{line}: imports the compiler ({target}); go through svhdesc.model")
+        private = private_owner(target, name)
+        if private is not None and private[1] != own_package:
+            problems.append(f"{module}:{line}: imports the private {private[0]} of {private[1]}")
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef) and node.name == "Coupling" and module not in COUPLING_HOMES:
+            problems.append(f"{module}:{node.lineno}: defines a Coupling (the one for a built model: svhdesc.model)")
+    return list(dict.fromkeys(problems))  # one line per import statement, however many names it takes
+
+
+def root_problems(package: Path) -> list[str]:
+    root = sorted(p.name for p in package.glob("*.py"))
+    return [f"{len(root)} modules at the root of {package.name}/ (at most {MAX_ROOT_MODULES}): {root}"] * (
+        len(root) > MAX_ROOT_MODULES
+    )
+
+
+def modules() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def test_no_module_breaks_the_import_and_coupling_rules() -> None:
+    problems = []
+    for path in modules():
+        problems += violations(path.read_text(), module_name(path), path.name == "__init__.py")
+    assert not problems, "\n".join(problems)
+
+
+def test_the_package_root_holds_at_most_ten_modules() -> None:
+    assert root_problems(PACKAGE) == []
+
+
+def test_every_runtime_package_exists() -> None:
+    # A renamed package would make the compiler rule vacuous for it.
+    assert all((PACKAGE / name / "__init__.py").is_file() for name in RUNTIME)
+
+
+@pytest.mark.parametrize(
+    ("source", "module", "expected"),
+    [
+        ("from svhdesc.compiler.settings.config import load_config\n", "svhdesc.validate.pair", "imports the compiler"),
+        ("import svhdesc.compiler.source.xacro\n", "svhdesc.sim.robot", "imports the compiler"),
+        ("def f():\n    from svhdesc.compiler import exact\n", "svhdesc.ros.node", "imports the compiler"),
+        ("from ..compiler.build import manifest\n", "svhdesc.validate.pair", "imports the compiler"),
+        ("from svhdesc.validate.render import _write_png\n", "svhdesc.wireloop.mujoco_run", "private _write_png"),
+        (
+            "from svhdesc.loaders._common import couplings\n",
+            "svhdesc.compare.engine",
+            "private _common of svhdesc.loaders",
+        ),
+        ("from svhdesc.loaders import _common\n", "svhdesc.compare.engine", "private _common"),
+        ("from dataclasses import dataclass\nclass Coupling:\n    pass\n", "svhdesc.sim.robot", "defines a Coupling"),
+    ],
+)
+def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -> None:
+    (problem,) = violations(source, module)
+    assert expected in problem
+
+
+@pytest.mark.parametrize(
+    ("source", "module"),
+    [
+        ("from svhdesc.compiler.source.packages import local_mesh_path\n", "svhdesc.model"),
+        ("from svhdesc.compiler.build import builder\n", "svhdesc.cli"),
+        ("from svhdesc.compiler.decompose.cache import _entry_meta\n", "svhdesc.compiler.decompose.pool"),
+        ("from svhdesc.loaders._common import couplings\n", "svhdesc.loaders.dart"),
+        ("from svhdesc.sim import Simulation\n", "svhdesc.ros.node"),
+        ("from svhdesc.extras import require as _require\n", "svhdesc.loaders._common"),
+        ("class Coupling:\n    pass\n", "svhdesc.ir"),
+    ],
+)
+def test_what_the_rules_allow_passes(source: str, module: str) -> None:
+    assert violations(source, module) == []
+
+
+def test_a_crowded_root_is_caught(tmp_path: Path) -> None:
+    for index in range(MAX_ROOT_MODULES):
+        (tmp_path / f"m{index}.py").write_text("")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "deep.py").write_text("")  # a subpackage's modules do not count
+    assert root_problems(tmp_path) == []
+    (tmp_path / "one_more.py").write_text("")
+    assert len(root_problems(tmp_path)) == 1
