@@ -7,7 +7,6 @@ not what the build meant.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -107,7 +106,7 @@ def configured_channels(pair: ModelPair) -> dict[str, Channel] | None:
     """The coupling spec's channels of the configuration that built ``pair`` (None if none did)."""
     if pair.variant is None:
         return None
-    spec = load_spec(Path(pair.variant.config_dir) / str(pair.variant.settings["coupling"]))
+    spec = load_spec(pair.variant.coupling_path)
     return {c.name: c for c in spec.channels}
 
 
