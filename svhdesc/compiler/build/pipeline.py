@@ -69,8 +69,14 @@ class Processor:
 
 @dataclass(frozen=True)
 class Check:
-    check: Callable[[Robot, Any], None]
-    section: Callable[[Plan], Any]
+    check: Callable[..., None]  # check(robot, section), or check(robot) for one that reads the robot alone
+    section: Callable[[Plan], Any] | None = None
+
+    def run(self, robot: Robot, plan: Plan) -> None:
+        if self.section is None:
+            self.check(robot)
+        else:
+            self.check(robot, self.section(plan))
 
 
 PROCESSORS: tuple[Processor, ...] = (
@@ -88,10 +94,10 @@ PROCESSORS: tuple[Processor, ...] = (
 
 CHECKS: tuple[Check, ...] = (
     Check(check_hand_names, lambda plan: plan.settings.hand),
-    Check(lambda robot, _: check_driven(robot), lambda plan: None),
+    Check(check_driven),
     Check(check_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.where)),
     Check(check_unique_names, lambda plan: (plan.settings.hand, plan.settings.arm)),
-    Check(lambda robot, _: check_finite(robot), lambda plan: None),
+    Check(check_finite),
 )
 
 # These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
@@ -142,7 +148,7 @@ def compile_variant(plan: Plan, timings: Timings | None = None) -> Compiled:
             robot = processor.process(robot, assets, processor.section(plan))
     with timings.stage("checks"):
         for check in CHECKS:
-            check.check(robot, check.section(plan))
+            check.run(robot, plan)
     for processor in SIMULATED:
         with timings.stage(processor.stage):
             robot = processor.process(robot, assets, processor.section(plan))
