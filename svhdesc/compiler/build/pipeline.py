@@ -1,6 +1,6 @@
 """The pipeline owner: a variant from its sources to the checked IR, in one order.
 
-``plan`` reads a variant once (xacro, URDF, coupling spec) and decides its collision rules and the
+``plan_variant`` reads a variant once (xacro, URDF, coupling spec) and decides its collision rules and the
 decompositions they need; ``compile_variant`` runs the processors on it in order, then the checks,
 then the processors that simulate the model (they need a checked one). ``compile_variants`` does both
 for the variants of a build, with every decomposition of every variant run at once in between.
@@ -125,7 +125,7 @@ def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -
     return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
 
 
-def plan(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
+def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
     """Read ``variant`` and decide its collision rules once: they serve the prefetch and the compile."""
     packages = {**variant.packages(), **extra_packages}
     source = read_source(variant, packages, timings)
@@ -160,7 +160,7 @@ def compile_variants(
 ) -> Iterator[Compiled]:
     """The selected variants compiled one after the other, once every decomposition they need has run (in
     parallel, across variants)."""
-    plans = [plan(variant, extra_packages, hulls, timings) for variant in config.select(names)]
+    plans = [plan_variant(variant, extra_packages, hulls, timings) for variant in config.select(names)]
     _check_mass_names(config, plans, extra_packages, timings)
     with timings.stage("decompose"):
         hulls.prefetch([job for p in plans for job in p.jobs])
