@@ -213,7 +213,7 @@ class Model:
                 continue
             if self.name in variants:
                 variant = variants[self.name]
-                return Configuration(variant.name, variant.config_dir, dict(variant.args), variant.sections)
+                return Configuration(variant.name, variant.config_dir, dict(variant.args), variant.settings)
         return None
 
     def _manifest_configs(self) -> list[Path]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -22,28 +22,15 @@ class Variant:
     name: str
     xacro: Path
     args: dict[str, str]
-    settings: dict[str, Any]  # merged defaults + overrides, checked, defaults filled (mappings, for the stages)
+    settings: Settings  # merged defaults + overrides, checked, defaults filled: each stage reads its section
     config_dir: Path
-    typed: Settings | None = field(default=None, compare=False)  # the same values, typed
 
     @property
-    def sections(self) -> Settings:
-        """The typed settings (checked again from ``settings`` for a Variant built without them)."""
-        return self.typed if self.typed is not None else normalise(self.settings, str(self.config_dir))[0]
-
-    @property
-    def hand(self) -> dict[str, Any]:
-        return self.settings["hand"]
-
-    @property
-    def arm(self) -> dict[str, Any]:
-        return self.settings["arm"]
-
-    def path(self, key: str) -> Path:
-        return (self.config_dir / self.settings[key]).resolve()
+    def coupling_path(self) -> Path:
+        return (self.config_dir / self.settings.coupling).resolve()
 
     def packages(self) -> dict[str, Path]:
-        return {name: (self.config_dir / d).resolve() for name, d in (self.settings["packages"] or {}).items()}
+        return {name: (self.config_dir / d).resolve() for name, d in self.settings.packages.items()}
 
 
 @dataclass(frozen=True)
@@ -131,7 +118,7 @@ def load_config(path: Path) -> Config:
             raise SvhdescError(f"{where(entry, at, bad[0])}: variant {name}: unknown key(s) {sorted(map(str, bad))}")
         overrides = Node({k: v for k, v in entry.items() if k not in {"xacro", "args"}})
         overrides.where, overrides.lines = at, dict(getattr(entry, "lines", {}))
-        typed, settings = normalise(_merge(defaults, overrides), at)
+        settings = normalise(_merge(defaults, overrides), at)
         xacro = entry["xacro"]
         if not isinstance(xacro, str) or not xacro:
             raise SvhdescError(f"{where(entry, at, 'xacro')}: variant {name}: 'xacro' must be a file name")
@@ -140,5 +127,5 @@ def load_config(path: Path) -> Config:
             raise SvhdescError(f"{where(entry, at, 'args')}: variant {name}: 'args' must map names to values")
         xacro_path = (path.parent / xacro).resolve()
         args = {str(k): str(v) for k, v in args.items()}
-        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve(), typed)
+        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve())
     return Config(path, variants, tuple(files))

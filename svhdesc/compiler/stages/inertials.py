@@ -5,12 +5,12 @@ from __future__ import annotations
 import fnmatch
 import math
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 import trimesh
 
 from svhdesc.compiler import exact
+from svhdesc.compiler.settings.schema import Hand, Mass
 from svhdesc.compiler.source.meshes import principal_cylinder
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.errors import SvhdescError
@@ -65,14 +65,16 @@ def check_inertial(inertial: Inertial, where: str) -> None:
         raise SvhdescError(f"{where}: principal moments {moments} violate the triangle inequality")
 
 
-def add_inertials(robot: Robot, assets: Assets, mass: dict[str, Any], hand_prefix: str) -> Robot:
-    explicit_full = mass.get("inertials") or {}
-    explicit_mass = dict(mass.get("links") or {})
+def add_inertials(robot: Robot, assets: Assets, section: tuple[Mass, Hand]) -> Robot:
+    mass, hand = section
+    hand_prefix = hand.prefix
+    explicit_full = mass.inertials
+    explicit_mass = dict(mass.links)
     solids = {link.name: link_solid(link, assets) for link in robot.links if link.has_geometry}
     masses: dict[str, float] = {n: float(m) for n, m in explicit_mass.items() if n in solids}
     tiny = needs_tiny_mass(robot) - set(explicit_full)
     masses.update({name: TINY_MASS for name in tiny})
-    for budget in mass.get("budgets") or []:
+    for budget in mass.budgets:
         pattern = str(budget["links"]).format(hand=hand_prefix)
         members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
         fixed = sum(masses.get(n, 0.0) for n in members)
