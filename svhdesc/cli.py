@@ -340,8 +340,9 @@ def validate_command(
 ) -> None:
     """Validate built VARIANTS (all under OUT by default) or one --urdf/--mjcf pair.
 
-    Prints a table per variant (check, measured value, bound, status). Exit 0 when every check
-    passes, 1 when any fails or could not run (see --allow-missing-tools), 2 on bad input.
+    Prints a table per variant (check, measured value, bound, status). Checks that do not apply to a
+    robot (no hand, no couplings, no keyframes, ...) are skipped and listed with why. Exit 0 when every
+    check that applies passes, 1 when any fails or could not run (see --allow-missing-tools), 2 on bad input.
     Mass bounds come from the configuration declaring the model's variant: --config, else
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
@@ -382,7 +383,9 @@ def validate_command(
         for name, names in failed:
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
-    click.echo(f"all checks passed ({len(reports)} model(s))")
+    skipped = sum(len(r.skipped) for r in reports)
+    applicable = f"; {skipped} skipped as not applicable, listed above" if skipped else ""
+    click.echo(f"all checks passed ({len(reports)} model(s){applicable})")
 
 
 @main.command("render")

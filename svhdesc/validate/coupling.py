@@ -7,7 +7,7 @@ from typing import Any
 from svhdesc.polynomial import image, linearise
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair, actuated_joints, joint_equalities
-from svhdesc.validate.report import Check, fmt, not_run, verdict
+from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
 
 SPEC_TOL = 1e-9
 LIMIT_TOL = 1e-9
@@ -38,6 +38,8 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
     assert pair.urdf is not None
     equalities = joint_equalities(pair.model)
     mimics = {j.name: j.mimic for j in pair.urdf.joints.values() if j.mimic is not None}
+    if not equalities and not mimics:
+        return [skipped("coupling_spec", "no couplings", bound)]
     problems, notes, worst, figures = [], [], 0.0, {}
     for eq in equalities:
         mimic = mimics.get(eq.joint)
@@ -102,6 +104,8 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
         return [missing]
     assert pair.urdf is not None
     model = pair.model
+    if not joint_equalities(model):
+        return [skipped("limits", "no couplings", bound)]
     problems, worst, figures = [], 0.0, {}
     for eq in joint_equalities(model):
         low, high = channel_range(model, eq.channel)

@@ -116,7 +116,7 @@ def _check_mass_names(
     for variant, _ in sources:
         mass = variant.settings["mass"]
         for section in ("links", "inertials"):
-            for name in mass[section]:
+            for name in mass[section] if isinstance(mass[section], dict) else ():  # inertials: recompute names none
                 at = where(mass[section], str(config.path), name)
                 if not at.startswith(f"{config.path}:"):
                     continue  # inherited (extends): a base's shared names may serve variants not declared here

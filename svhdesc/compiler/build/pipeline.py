@@ -13,7 +13,7 @@ from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.urdf import mimic_order_problems
 from svhdesc.compiler.settings.config import Variant
-from svhdesc.compiler.settings.coupling import apply_spec, load_spec
+from svhdesc.compiler.settings.coupling import couple
 from svhdesc.compiler.source.packages import resolve_uri
 from svhdesc.compiler.source.urdf import read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
@@ -68,12 +68,11 @@ def compile_variant(
     timings = timings or Timings()
     sections = variant.sections  # typed, checked settings: each stage gets its own section
     source = source or read_source(variant, extra_packages, timings)
-    spec_path = variant.path("coupling")
-    prefix = variant.hand["prefix"]
+    spec_path = variant.path("coupling") if sections.coupling else None  # no spec: a robot without couplings
+    prefix = sections.hand.prefix
     with timings.stage("coupling"):
-        spec = load_spec(spec_path)
-        widen = variant.settings["coupled_limits"] == "widen"
-        robot = apply_spec(source.robot, spec, prefix, widen_limits=widen)
+        widen = sections.coupled_limits == "widen"
+        robot = couple(source.robot, spec_path, prefix, widen_limits=widen)
         for problem in mimic_order_problems(robot):
             # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
             warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)
@@ -82,11 +81,11 @@ def compile_variant(
         rules = collision_rules(robot, variant.settings["collision"], prefix)
         robot = bake_meshes(robot, assets, rules, hulls)
     with timings.stage("inertials"):
-        robot = add_inertials(robot, assets, variant.settings["mass"], prefix)
+        robot = add_inertials(robot, assets, sections.mass, prefix)
     with timings.stage("physics"):
         robot = add_contact(robot, sections.contact, sections.hand)
         robot = add_actuation(robot, sections.hand, sections.arm, sections.transmissions)
-        robot = add_keyframes(robot, variant.settings["keyframes"], prefix, set(variant.arm.get("joints", [])))
+        robot = add_keyframes(robot, variant.settings["keyframes"], set(sections.arm.joints))
         check_hand_names(robot, sections.hand)
         check_driven(robot)
         check_keyframes(robot, variant.settings["keyframes"], _at(variant))
@@ -96,7 +95,7 @@ def compile_variant(
         robot = add_world(robot, sections.simulation, sections.scene)
     with timings.stage("exclusions"):
         robot = add_excludes(robot, lambda r: touching_at_rest(r, assets))
-    return Compiled(robot, assets, [*source.inputs, spec_path])
+    return Compiled(robot, assets, [*source.inputs, *([spec_path] if spec_path else [])])
 
 
 def _at(variant: Variant) -> str:

@@ -79,15 +79,17 @@ def _solref(values: list[float] | None) -> tuple[float, float] | None:
     return (values[0], values[1]) if values else None
 
 
-def add_keyframes(robot: Robot, keyframes: dict[str, Any], hand_prefix: str, optional: set[str]) -> Robot:
-    """Keyframes name hand channels without prefix; ``optional`` joints the variant lacks are left out."""
-    channel_names = {c.name for c in robot.channels}
+def add_keyframes(robot: Robot, keyframes: dict[str, Any], optional: set[str]) -> Robot:
+    """Keyframes name hand channels by channel name (a joint's own name otherwise); ``optional`` joints the
+    variant lacks are left out."""
+    channel_joint = {c.name: c.joint for c in robot.channels}
+    channel_names = set(channel_joint)
     movable = {j.name for j in robot.joints if j.movable}
     frames = []
     for name, values in keyframes.items():
         positions = {}
         for key, value in (values or {}).items():
-            joint = f"{hand_prefix}_{key}" if key in channel_names else key
+            joint = channel_joint.get(key, key)
             if joint in movable:
                 if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
                     raise SvhdescError(
@@ -105,7 +107,7 @@ def add_force_sensor(robot: Robot, hand: Hand, solid_bounds: dict[str, np.ndarra
     """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
     if not hand.force_sensor:
         return robot
-    link = f"{hand.prefix}_{hand.force_sensor}"
+    link = hand.link(hand.force_sensor)
     if link not in solid_bounds:
         raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: link {link} has no geometry")
     low, high = solid_bounds[link]

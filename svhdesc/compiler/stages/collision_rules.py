@@ -45,7 +45,7 @@ def _rule(entry: dict[str, Any], base: CollisionRule, global_params: dict[str, A
     return CollisionRule(mode, primitive, params, link_class)
 
 
-def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -> dict[str, CollisionRule]:
+def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str | None) -> dict[str, CollisionRule]:
     """Rule per link with collision geometry: first matching class, then per-link overrides."""
     at = where(collision, "collision")
     unknown = set(collision) - {"mode", "primitive", "params", "classes", "links"}
@@ -68,14 +68,14 @@ def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -
         label = f"{where(entry, where(collision, at, 'classes'))}: collision.classes[{index}]"
         if not isinstance(entry, dict) or not isinstance(entry.get("links", []), list):
             raise SvhdescError(f"{label}: must be a mapping with a list of 'links'")
-        patterns = [str(p).format(hand=hand_prefix) for p in entry.get("links", [])]
+        patterns = [str(p).format(hand=hand_prefix or "") for p in entry.get("links", [])]
         classes.append((patterns, _rule(entry, default, global_params, label)))
     overrides = collision.get("links") or {}
     if not isinstance(overrides, dict) or not all(isinstance(v, dict) for v in overrides.values()):
         raise SvhdescError(f"{where(collision, at, 'links')}: collision.links must map links to rules")
     names = {link.name for link in robot.links}
     for name in overrides:
-        if str(name).format(hand=hand_prefix) not in names and "{hand}" not in str(name):
+        if str(name).format(hand=hand_prefix or "") not in names and "{hand}" not in str(name):
             raise SvhdescError(f"{where(overrides, at, name)}: collision.links: unknown link {name!r}")
     rules = {}
     for link in robot.links:
@@ -86,7 +86,7 @@ def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -
             _rule({}, default, global_params, f"{at}: collision"),
         )
         for name, entry in overrides.items():
-            if str(name).format(hand=hand_prefix) == link.name:
+            if str(name).format(hand=hand_prefix or "") == link.name:
                 rule = _rule(entry, rule, {}, f"{where(overrides, at, name)}: collision.links.{name}")
         rules[link.name] = rule
     return rules
