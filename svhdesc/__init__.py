@@ -111,7 +111,12 @@ def variants() -> list[str]:
     return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.xml").is_file()) if root.is_dir() else []
 
 
-def get(name: str) -> Model:
+def get(name: str | os.PathLike[str]) -> Model:
+    """A shipped variant by name, or any built variant by its folder (``<folder>/<folder name>.xml``)."""
+    folder = Path(name)
+    if folder.is_dir() and (folder / f"{folder.name}.xml").is_file():
+        return Model(folder.name, folder.resolve())
+    name = str(name)
     if name not in variants():
         raise KeyError(f"unknown variant {name!r}; available: {', '.join(variants())}")
     return Model(name, generated_dir() / name)

@@ -91,7 +91,7 @@ def add_inertials(robot: Robot, assets: Assets, mass: Mass, hand_prefix: str | N
             spec = explicit_full[link.name]
             inertial = Inertial(float(spec["mass"]), tuple(spec["com"]), tuple(spec["inertia"]))  # type: ignore[arg-type]
         elif link.inertial is not None:
-            inertial = _from_source(link, solids, masses, mass)  # explicit in the source, or recomputed
+            inertial = _from_source(link, solids, mass)  # explicit in the source, or recomputed
         elif link.name in solids:
             if link.name not in masses:
                 raise SvhdescError(f"link {link.name} has geometry but no mass: add it to a budget or mass.links")
@@ -141,15 +141,15 @@ def _check_recompute_names(robot: Robot, mass: Mass) -> None:
             raise SvhdescError(f"{at}: mass.inertials.{name}: recompute: link {name} has {lacking}")
 
 
-def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], masses: dict[str, float], mass: Mass) -> Inertial:
+def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], mass: Mass) -> Inertial:
     """The source's inertial, or, where the settings say `recompute`, the cylinder fitted to the link's
-    geometry at the link's mass (mass.links or a budget, else the source's own), with a warning."""
+    geometry at the link's mass (mass.links, else the source's own), with a warning."""
     assert link.inertial is not None
     problem = inertial_problem(link.inertial)
     asked = link.name in mass.recompute_links
     if not asked and not (problem and mass.recompute_all and link.name in solids):
         return link.inertial
-    weight = masses.get(link.name, link.inertial.mass)
+    weight = float(mass.links.get(link.name, link.inertial.mass))  # the tensor is what is wrong, not the mass
     if weight <= 0:
         raise SvhdescError(f"link {link.name}: recompute needs a mass > 0: give it in mass.links")
     reason = f"source inertial invalid ({problem})" if problem else "source inertial replaced as configured"
