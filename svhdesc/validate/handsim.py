@@ -107,7 +107,9 @@ def configured_channels(pair: ModelPair) -> dict[str, Channel] | None:
     """The coupling spec's channels of the configuration that built ``pair`` (None if none did)."""
     if pair.variant is None:
         return None
-    spec = load_spec(Path(pair.variant.config_dir) / str(pair.variant.settings["coupling"]))
+    if pair.variant.sections.coupling is None:
+        return {}  # configured without a coupling spec: no channels
+    spec = load_spec(Path(pair.variant.config_dir) / pair.variant.sections.coupling)
     return {c.name: c for c in spec.channels}
 
 
