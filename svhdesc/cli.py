@@ -218,7 +218,8 @@ def list_command(config_path: Path | None) -> None:
 @_friendly
 def info_command(variant: str, config_path: Path | None, packages: tuple[str, ...]) -> None:
     """DoF, actuators, masses and the coupling matrix S_m of VARIANT."""
-    from svhdesc.compiler.build.pipeline import compile_variant
+    from svhdesc.compiler.build.pipeline import compile_variants
+    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose import HullCache
     from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
     from svhdesc.compiler.settings.coupling import coupling_matrix
@@ -227,7 +228,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     selected = config.select([variant])[0]
     hulls = HullSource(HullCache(default_cache_dir()))
     hulls.seed_from_outputs([models_dir() / selected.name])
-    robot = compile_variant(selected, package_dirs, hulls).robot
+    robot = next(compile_variants(config, [selected.name], package_dirs, hulls, Timings())).robot
     movable = [j for j in robot.joints if j.movable]
     coupled = [j for j in movable if j.mimic]
     click.echo(

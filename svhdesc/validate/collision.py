@@ -23,7 +23,7 @@ def check_self_collision(pair: ModelPair, options: Options) -> list[Check]:
     data = mujoco.MjData(model)
     found: dict[str, list[dict[str, object]]] = {}
     deepest = 0.0
-    grasps = set(pair.variant.settings.get("grasps") or {}) if pair.variant is not None else set()
+    grasps = set(pair.variant.settings.grasps) if pair.variant is not None else set()
     for key in range(model.nkey):
         if model.key(key).name in grasps:
             continue

@@ -301,7 +301,7 @@ def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> G
 
     mjcf = target if target.is_file() else target / f"{target.name}.xml"
     variant = configured_variant(mjcf.stem, mjcf, None)
-    grasps = dict(variant.settings.get("grasps") or {}) if variant is not None else {}
+    grasps = dict(variant.settings.grasps) if variant is not None else {}
     if name not in grasps:
         raise SvhdescError(f"{mjcf}: no grasp '{name}' configured (grasps: {', '.join(grasps) or 'none'})")
     return grasp_picture(mjcf, name, grasps[name], out, size)
@@ -310,7 +310,7 @@ def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> G
 def configured_grasps(pair: ModelPair) -> dict[str, Any] | None:
     if pair.variant is None:
         return None
-    return dict(pair.variant.settings.get("grasps") or {})
+    return dict(pair.variant.settings.grasps)
 
 
 def check_grasps(pair: ModelPair, options: Options) -> list[Check]:

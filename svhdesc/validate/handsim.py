@@ -7,7 +7,6 @@ not what the build meant.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -107,9 +106,9 @@ def configured_channels(pair: ModelPair) -> dict[str, Channel] | None:
     """The coupling spec's channels of the configuration that built ``pair`` (None if none did)."""
     if pair.variant is None:
         return None
-    if pair.variant.sections.coupling is None:
+    if pair.variant.coupling_path is None:
         return {}  # configured without a coupling spec: no channels
-    spec = load_spec(Path(pair.variant.config_dir) / pair.variant.sections.coupling)
+    spec = load_spec(pair.variant.coupling_path)
     return {c.name: c for c in spec.channels}
 
 

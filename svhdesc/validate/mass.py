@@ -36,8 +36,8 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
                 {"hand_kg": hand, "other_kg": rest},
             )
         ]
-    settings = variant.sections.mass
-    prefix = variant.sections.hand.prefix
+    settings = variant.settings.mass
+    prefix = variant.settings.hand.prefix
     problems, parts, figures = [], [], {}
     for budget in settings.budgets:
         pattern = str(budget["links"]).format(hand=prefix or "")

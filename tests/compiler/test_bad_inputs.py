@@ -502,9 +502,9 @@ def test_duplicate_names_in_the_final_model_are_refused(kind: str) -> None:
     from svhdesc.errors import SvhdescError
     from svhdesc.ir import ForceSensor, Keyframe, Link, Robot
 
-    sections = load_config(MINI / "mini.yaml").select(["mini"])[0].sections
+    settings = load_config(MINI / "mini.yaml").select(["mini"])[0].settings
     robot = Robot(name="r", links=(Link("a"), Link("b")), joints=(), root="a")
-    check_unique_names(robot, sections.hand, sections.arm)  # distinct names pass
+    check_unique_names(robot, (settings.hand, settings.arm))  # distinct names pass
     twice = {
         "link": replace(robot, links=(Link("a"), Link("a"))),
         "site": replace(robot, sensors=(ForceSensor("a_force", "a"), ForceSensor("a_force", "b"))),
@@ -512,7 +512,7 @@ def test_duplicate_names_in_the_final_model_are_refused(kind: str) -> None:
         "keyframe": replace(robot, keyframes=(Keyframe("home", ()), Keyframe("home", ()))),
     }[kind]
     with pytest.raises(SvhdescError, match="duplicate (site|sensor|link|keyframe) name") as raised:
-        check_unique_names(twice, sections.hand, sections.arm)
+        check_unique_names(twice, (settings.hand, settings.arm))
     if kind in ("site", "sensor"):
         assert "mini.yaml:6" in str(raised.value)  # hand.force_sensor
 

@@ -9,59 +9,35 @@ from svhdesc.compiler.build import manifest as manifest_file
 from svhdesc.compiler.build.agreement import file_difference, manifest_difference
 from svhdesc.compiler.build.freshness import portable, sha256, svhdesc_version, tool_versions
 from svhdesc.compiler.build.outdir import output_directory, publish
-from svhdesc.compiler.build.pipeline import Source, compile_variant, decomposition_plan, read_source
+from svhdesc.compiler.build.pipeline import Compiled, compile_variants
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.export import batch as batch_export
-from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
-from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
-from svhdesc.compiler.export.ros_outputs import EXECUTABLE, ros_outputs
-from svhdesc.compiler.export.urdf import export_urdf
-from svhdesc.compiler.settings.config import Config, Variant
-from svhdesc.compiler.settings.yamlio import where
-from svhdesc.compiler.stages.batch_sizing import sample_capacities
-from svhdesc.compiler.stages.finite import check_finite
-from svhdesc.errors import SvhdescError
-from svhdesc.ir import Robot
+from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built
+from svhdesc.compiler.settings.config import Config
 from svhdesc.paths import models_dir
 
 
-def write_variant(
-    variant: Variant,
-    source: Source,
-    directory: Path,
-    extra_packages: dict[str, Path],
-    config_files: tuple[Path, ...],
-    hulls: HullSource,
-    timings: Timings,
-) -> None:
-    compiled = compile_variant(variant, extra_packages, hulls, timings, source)
-    robot = compiled.robot
-    check_finite(robot)
+def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path, ...], timings: Timings) -> None:
+    """The compiled variant's assets, every output of the registry, and the manifest, into ``directory``."""
     directory.mkdir(parents=True)
     (directory / "assets").mkdir()
     for name, data in sorted(compiled.assets.files.items()):
         (directory / "assets" / name).write_bytes(data)
-    outputs = {
-        "package.xml": export_package_xml(robot, svhdesc_version()),
-        f"{variant.name}.urdf": export_urdf(robot, mesh_uri_prefix(robot)),
-        f"{variant.name}.xml": export_mjcf(robot),
-        "scene.xml": export_scene(robot, f"{variant.name}.xml"),
-    }
-    with timings.stage("export"):
-        outputs.update(ros_outputs(robot, outputs[f"{variant.name}.xml"], compiled.assets))
-    with timings.stage("batch"):
-        outputs.update(batch_outputs(robot, directory / "assets"))
-    with timings.stage("export"):
-        for name, data in outputs.items():
-            (directory / name).parent.mkdir(parents=True, exist_ok=True)
-            (directory / name).write_bytes(data)
-            if name.startswith("scripts/"):
-                (directory / name).chmod(EXECUTABLE)
-    packages = {**variant.packages(), **extra_packages}
+    built = Built(compiled.robot, compiled.assets, directory, svhdesc_version())
+    for output in OUTPUTS:
+        if not output.when(compiled.robot):
+            continue
+        path = directory / output.name.format(robot=compiled.robot.name)
+        with timings.stage(output.stage):
+            data = output.export(built)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        if output.executable:
+            path.chmod(EXECUTABLE)
+    plan = compiled.plan
     inputs = {
-        portable(p, packages, variant.config_dir): sha256(p.read_bytes())
-        for p in sorted(set(compiled.inputs) | set(config_files))
+        portable(p, plan.packages, plan.variant.config_dir): sha256(p.read_bytes())
+        for p in sorted(set(plan.inputs) | set(config_files))
     }
     produced = {
         path.relative_to(directory).as_posix(): sha256(path.read_bytes())
@@ -69,59 +45,13 @@ def write_variant(
         if path.is_file()
     }
     manifest = {
-        "variant": variant.name,
+        "variant": plan.variant.name,
         "inputs": inputs,
         "outputs": produced,
         "decompositions": compiled.assets.decompositions,
         "tools": tool_versions(),
     }
     manifest_file.write(directory, manifest)
-
-
-def batch_outputs(robot: Robot, assets: Path) -> dict[str, bytes]:
-    """The batch model and its scene, capacities sized by stepping the unsized model in MuJoCo C."""
-    name = batch_export.model_file(robot.name)
-    scene = batch_export.export_batch_scene(robot)
-    capacities = sample_capacities(scene, name, batch_export.export_batch(robot, None), assets)
-    return {name: batch_export.export_batch(robot, capacities), batch_export.SCENE_FILE: scene}
-
-
-def _prepare(
-    config: Config, names: list[str], out: Path, extra_packages: dict[str, Path], hulls: HullSource, timings: Timings
-) -> list[tuple[Variant, Source]]:
-    """Read every variant, then run all the decompositions they need at once (in parallel)."""
-    sources = [(v, read_source(v, extra_packages, timings)) for v in config.select(names)]
-    _check_mass_names(config, sources, extra_packages, timings)
-    # Hulls are keyed by content (mesh, parameters, CoACD version), so the shipped models' committed hulls serve any
-    # build, into any --out; the out's own come last and win.
-    shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent != out)
-    hulls.seed_from_outputs([*shipped, *(out / v.name for v, _ in sources)])
-    with timings.stage("decompose"):
-        hulls.prefetch([job for v, s in sources for job in decomposition_plan(v, s)])
-    return sources
-
-
-def _check_mass_names(
-    config: Config, sources: list[tuple[Variant, Source]], extra_packages: dict[str, Path], timings: Timings
-) -> None:
-    """mass.links/inertials written in this config may name links of another of its variants (shared
-    settings), but not of none."""
-    known = {v.name: {link.name for link in s.robot.links} for v, s in sources}
-
-    def links_of(variant: Variant) -> set[str]:
-        if variant.name not in known:
-            known[variant.name] = {link.name for link in read_source(variant, extra_packages, timings).robot.links}
-        return known[variant.name]
-
-    for variant, _ in sources:
-        mass = variant.settings["mass"]
-        for section in ("links", "inertials"):
-            for name in mass[section] if isinstance(mass[section], dict) else ():  # inertials: recompute names none
-                at = where(mass[section], str(config.path), name)
-                if not at.startswith(f"{config.path}:"):
-                    continue  # inherited (extends): a base's shared names may serve variants not declared here
-                if name not in links_of(variant) and not any(name in links_of(v) for v in config.variants.values()):
-                    raise SvhdescError(f"{at}: mass.{section}: no link {name} in any variant")
 
 
 def _write_all(
@@ -132,12 +62,17 @@ def _write_all(
     extra_packages: dict[str, Path],
     hulls: HullSource,
     timings: Timings,
-) -> list[Variant]:
+) -> list[str]:
     """Every selected variant into ``directory``/<variant>; ``out`` holds the committed outputs."""
-    sources = _prepare(config, names, out, extra_packages, hulls, timings)
-    for variant, source in sources:
-        write_variant(variant, source, directory / variant.name, extra_packages, config.files, hulls, timings)
-    return [variant for variant, _ in sources]
+    # Hulls are keyed by content (mesh, parameters, CoACD version), so the shipped models' committed hulls serve any
+    # build, into any --out; the out's own come last and win.
+    shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent != out)
+    hulls.seed_from_outputs([*shipped, *(out / v.name for v in config.select(names))])
+    written = []
+    for compiled in compile_variants(config, names, extra_packages, hulls, timings):
+        write_variant(compiled, directory / compiled.plan.variant.name, config.files, timings)
+        written.append(compiled.plan.variant.name)
+    return written
 
 
 def build(
@@ -155,8 +90,8 @@ def build(
     timings = timings or Timings()
     with output_directory(out) as staging:
         variants = _write_all(config, names, out, staging, extra_packages, hulls, timings)
-        publish(staging, out, [v.name for v in variants])
-    return [v.name for v in variants]
+        publish(staging, out, variants)
+    return variants
 
 
 def check(
@@ -174,7 +109,7 @@ def check(
         variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings)
         differences = []
         for variant in variants:
-            differences += _differences(fresh / variant.name, out / variant.name, variant.name)
+            differences += _differences(fresh / variant, out / variant, variant)
     return differences
 
 

@@ -1,50 +1,123 @@
-"""One variant from source to IR: expand, read, couple, then the processors in order."""
+"""The pipeline owner: a variant from its sources to the checked IR, in one order.
+
+``plan_variant`` reads a variant once (xacro, URDF, coupling spec) and decides its collision rules and the
+decompositions they need; ``compile_variant`` runs the processors on it in order, then the checks,
+then the processors that simulate the model (they need a checked one). ``compile_variants`` does both
+for the variants of a build, with every decomposition of every variant run at once in between.
+
+A processor is ``process(robot, assets, section) -> robot``: ``section`` is what it reads, its typed
+settings section(s) or the plan's own (rules, spec), picked by the processor's entry below; no stage
+reads the config itself.
+"""
 
 from __future__ import annotations
 
-import warnings
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
-import numpy as np
 from lxml import etree
 
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.export.urdf import mimic_order_problems
-from svhdesc.compiler.settings.config import Variant
-from svhdesc.compiler.settings.coupling import couple
+from svhdesc.compiler.settings.config import Config, Variant
+from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.compiler.settings.schema import Settings
+from svhdesc.compiler.settings.yamlio import where
 from svhdesc.compiler.source.packages import resolve_uri
 from svhdesc.compiler.source.urdf import read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import collision_rules
-from svhdesc.compiler.stages.collisions import add_excludes
 from svhdesc.compiler.stages.contact import add_contact
-from svhdesc.compiler.stages.geometry import bake_meshes, decomposition_jobs
-from svhdesc.compiler.stages.inertials import add_inertials, link_solid
-from svhdesc.compiler.stages.rest_contacts import touching_at_rest
+from svhdesc.compiler.stages.coupled import Coupled, couple
+from svhdesc.compiler.stages.finite import check_finite
+from svhdesc.compiler.stages.geometry import Meshes, bake_meshes, decomposition_jobs
+from svhdesc.compiler.stages.inertials import add_inertials
+from svhdesc.compiler.stages.rest_contacts import exclude_touching
 from svhdesc.compiler.stages.semantics import check_driven, check_hand_names, check_keyframes, check_unique_names
 from svhdesc.compiler.stages.world import add_world
+from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A variant read and planned, once: the source robot and what the processors need beside their settings."""
+
+    variant: Variant
+    robot: Robot  # as read: kinematics and geometry, nothing injected yet
+    packages: dict[str, Path]  # the packages it was read with
+    inputs: tuple[Path, ...]  # every file the build reads, for the manifest
+    coupling: Coupled
+    meshes: Meshes  # the collision rule of each link, and the hull source
+    jobs: tuple[Any, ...]  # the decompositions the rules ask for, run across variants before any compile
+
+    @property
+    def settings(self) -> Settings:
+        return self.variant.settings
+
+
+@dataclass(frozen=True)
+class Processor:
+    stage: str  # its line in --timings
+    process: Callable[[Robot, Assets, Any], Robot]
+    section: Callable[[Plan], Any]  # what it reads
+
+
+@dataclass(frozen=True)
+class Check:
+    check: Callable[..., None]  # check(robot, section), or check(robot) for one that reads the robot alone
+    section: Callable[[Plan], Any] | None = None
+
+    def run(self, robot: Robot, plan: Plan) -> None:
+        if self.section is None:
+            self.check(robot)
+        else:
+            self.check(robot, self.section(plan))
+
+
+PROCESSORS: tuple[Processor, ...] = (
+    Processor("coupling", couple, lambda plan: plan.coupling),
+    Processor("meshes", bake_meshes, lambda plan: plan.meshes),
+    Processor("inertials", add_inertials, lambda plan: (plan.settings.mass, plan.settings.hand)),
+    Processor("physics", add_contact, lambda plan: (plan.settings.contact, plan.settings.hand)),
+    Processor(
+        "physics", add_actuation, lambda plan: (plan.settings.hand, plan.settings.arm, plan.settings.transmissions)
+    ),
+    Processor("physics", add_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.hand, plan.settings.arm)),
+    Processor("physics", add_force_sensor, lambda plan: plan.settings.hand),
+    Processor("physics", add_world, lambda plan: (plan.settings.simulation, plan.settings.scene)),
+)
+
+CHECKS: tuple[Check, ...] = (
+    Check(check_hand_names, lambda plan: plan.settings.hand),
+    Check(check_driven),
+    Check(check_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.where)),
+    Check(check_unique_names, lambda plan: (plan.settings.hand, plan.settings.arm)),
+    Check(check_finite),
+)
+
+# These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
+SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: None),)
 
 
 @dataclass
 class Compiled:
+    plan: Plan
     robot: Robot
     assets: Assets
-    inputs: list[Path]  # every file the build read, for the manifest
 
 
-@dataclass
+@dataclass(frozen=True)
 class Source:
-    robot: Robot  # as read: kinematics and geometry, nothing injected yet
+    robot: Robot  # as read
     inputs: list[Path]
 
 
-def read_source(variant: Variant, extra_packages: dict[str, Path], timings: Timings) -> Source:
-    packages = {**variant.packages(), **extra_packages}
+def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
     with timings.stage("xacro"):
         tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
     with timings.stage("read"):
@@ -52,54 +125,71 @@ def read_source(variant: Variant, extra_packages: dict[str, Path], timings: Timi
     return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
 
 
-def decomposition_plan(variant: Variant, source: Source) -> list:
-    """The decompositions this variant needs, so a build can run them all in parallel first."""
-    rules = collision_rules(source.robot, variant.settings["collision"], variant.hand["prefix"])
-    return decomposition_jobs(source.robot, rules)
-
-
-def compile_variant(
-    variant: Variant,
-    extra_packages: dict[str, Path],
-    hulls: HullSource | None = None,
-    timings: Timings | None = None,
-    source: Source | None = None,
-) -> Compiled:
-    timings = timings or Timings()
-    sections = variant.sections  # typed, checked settings: each stage gets its own section
-    source = source or read_source(variant, extra_packages, timings)
-    spec_path = variant.path("coupling") if sections.coupling else None  # no spec: a robot without couplings
-    prefix = sections.hand.prefix
+def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
+    """Read ``variant`` and decide its collision rules once: they serve the prefetch and the compile."""
+    packages = {**variant.packages(), **extra_packages}
+    source = read_source(variant, packages, timings)
+    settings = variant.settings
+    spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
-        widen = sections.coupled_limits == "widen"
-        robot = couple(source.robot, spec_path, prefix, widen_limits=widen)
-        for problem in mimic_order_problems(robot):
-            # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
-            warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)
-    assets = Assets()
-    with timings.stage("meshes"):
-        rules = collision_rules(robot, variant.settings["collision"], prefix)
-        robot = bake_meshes(robot, assets, rules, hulls)
-    with timings.stage("inertials"):
-        robot = add_inertials(robot, assets, sections.mass, prefix)
-    with timings.stage("physics"):
-        robot = add_contact(robot, sections.contact, sections.hand)
-        robot = add_actuation(robot, sections.hand, sections.arm, sections.transmissions)
-        robot = add_keyframes(robot, variant.settings["keyframes"], set(sections.arm.joints))
-        check_hand_names(robot, sections.hand)
-        check_driven(robot)
-        check_keyframes(robot, variant.settings["keyframes"], _at(variant))
-        bounds = {link.name: np.array(link_solid(link, assets).bounds) for link in robot.links if link.collisions}
-        robot = add_force_sensor(robot, sections.hand, bounds)
-        check_unique_names(robot, sections.hand, sections.arm)
-        robot = add_world(robot, sections.simulation, sections.scene)
-    with timings.stage("exclusions"):
-        robot = add_excludes(robot, lambda r: touching_at_rest(r, assets))
-    return Compiled(robot, assets, [*source.inputs, *([spec_path] if spec_path else [])])
+        spec = load_spec(spec_path) if spec_path is not None else None
+    coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen")
+    rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
+    jobs = tuple(decomposition_jobs(source.robot, rules))
+    inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))
+    return Plan(variant, source.robot, packages, inputs, coupled, Meshes(rules, hulls), jobs)
 
 
-def _at(variant: Variant) -> str:
-    return getattr(variant.settings, "where", "") or str(variant.config_dir)
+def compile_variant(plan: Plan, timings: Timings | None = None) -> Compiled:
+    """The processors in order, then the checks, then the processors that simulate the checked model."""
+    timings = timings or Timings()
+    robot, assets = plan.robot, Assets()
+    for processor in PROCESSORS:
+        with timings.stage(processor.stage):
+            robot = processor.process(robot, assets, processor.section(plan))
+    with timings.stage("checks"):
+        for check in CHECKS:
+            check.run(robot, plan)
+    for processor in SIMULATED:
+        with timings.stage(processor.stage):
+            robot = processor.process(robot, assets, processor.section(plan))
+    return Compiled(plan, robot, assets)
+
+
+def compile_variants(
+    config: Config, names: list[str], extra_packages: dict[str, Path], hulls: HullSource, timings: Timings
+) -> Iterator[Compiled]:
+    """The selected variants compiled one after the other, once every decomposition they need has run (in
+    parallel, across variants)."""
+    plans = [plan_variant(variant, extra_packages, hulls, timings) for variant in config.select(names)]
+    _check_mass_names(config, plans, extra_packages, timings)
+    with timings.stage("decompose"):
+        hulls.prefetch([job for p in plans for job in p.jobs])
+    for each in plans:
+        yield compile_variant(each, timings)
+
+
+def _check_mass_names(config: Config, plans: list[Plan], extra_packages: dict[str, Path], timings: Timings) -> None:
+    """mass.links/inertials written in this config may name links of another of its variants (shared
+    settings), but not of none."""
+    known = {p.variant.name: {link.name for link in p.robot.links} for p in plans}
+
+    def links_of(variant: Variant) -> set[str]:
+        if variant.name not in known:
+            source = read_source(variant, {**variant.packages(), **extra_packages}, timings)
+            known[variant.name] = {link.name for link in source.robot.links}
+        return known[variant.name]
+
+    for each in plans:
+        mass = each.settings.mass
+        explicit = mass.inertials if isinstance(mass.inertials, dict) else {}  # `inertials: recompute` names none
+        for section, named in (("links", mass.links), ("inertials", explicit)):
+            for name in named:
+                at = where(named, str(config.path), name)
+                # Only names written here: a base's (extends) shared names may serve variants not declared here.
+                mine = at.startswith(f"{config.path}:")
+                if mine and not any(name in links_of(v) for v in (each.variant, *config.variants.values())):
+                    raise SvhdescError(f"{at}: mass.{section}: no link {name} in any variant")
 
 
 def _mesh_sources(tree: etree._Element, packages: dict[str, Path], source: Path) -> list[Path]:

@@ -22,6 +22,23 @@ def _coacd() -> Any:
     return coacd
 
 
+def _dangling(boundary: np.ndarray, incident: dict[int, list[int]]) -> np.ndarray:
+    """Boundary edges on dangling chains (an edge at a degree-1 vertex is on no loop), marked used so
+    that the loop walks cannot wander into one and give up on the loop they started."""
+    used = np.zeros(len(boundary), dtype=bool)
+    degree = {v: len(es) for v, es in incident.items()}
+    stack = [v for v, d in degree.items() if d == 1]
+    while stack:
+        for e in incident[stack.pop()]:
+            if not used[e]:
+                used[e] = True
+                for w in boundary[e].tolist():
+                    degree[w] -= 1
+                    if degree[w] == 1:
+                        stack.append(w)
+    return used
+
+
 def _close_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop index-degenerate faces and cap every closed boundary loop with a fan to its centroid.
 
@@ -40,19 +57,7 @@ def _close_holes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, n
     for i, (a, b) in enumerate(boundary.tolist()):
         incident.setdefault(a, []).append(i)
         incident.setdefault(b, []).append(i)
-    used = np.zeros(len(boundary), dtype=bool)
-    # Prune dangling chains (an edge at a degree-1 vertex is on no loop), so the walks below
-    # cannot wander into one and give up on the loop they started.
-    degree = {v: len(es) for v, es in incident.items()}
-    stack = [v for v, d in degree.items() if d == 1]
-    while stack:
-        for e in incident[stack.pop()]:
-            if not used[e]:
-                used[e] = True
-                for w in boundary[e].tolist():
-                    degree[w] -= 1
-                    if degree[w] == 1:
-                        stack.append(w)
+    used = _dangling(boundary, incident)
     new_vertices, new_faces = [vertices], [faces]
     centre = len(vertices)
     for first in range(len(boundary)):

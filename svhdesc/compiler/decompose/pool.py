@@ -7,6 +7,7 @@ import multiprocessing
 import os
 import sys
 from collections import Counter
+from collections.abc import Callable
 
 import trimesh
 
@@ -60,6 +61,10 @@ class _Progress:
         sys.stderr.flush()
 
 
+Pending = dict[str, tuple[bytes, DecompParams, list[str]]]  # key -> (stl, params, job names)
+Results = dict[str, tuple[list[trimesh.Trimesh], bool]]  # job name -> (hulls, cache hit)
+
+
 def parallel_decompose(
     jobs: list[tuple[str, trimesh.Trimesh, DecompParams]],
     cache: HullCache | None,
@@ -67,7 +72,7 @@ def parallel_decompose(
     force: bool = False,
     progress: bool = False,
     stats: Counter[str] | None = None,
-) -> dict[str, tuple[list[trimesh.Trimesh], bool]]:
+) -> Results:
     """Decompose many meshes: hits come from the cache, misses run in ``n_jobs`` processes.
 
     Returns ``{name: (hulls, cache_hit)}`` in job order.  Results do not depend on ``n_jobs``
@@ -81,22 +86,9 @@ def parallel_decompose(
     if len(set(names)) != len(names):
         dupes = sorted({n for n in names if names.count(n) > 1})
         raise ValueError(f"duplicate job names: {', '.join(dupes)}")
-
-    results: dict[str, tuple[list[trimesh.Trimesh], bool]] = {}
-    pending: dict[str, tuple[bytes, DecompParams, list[str]]] = {}  # key -> (stl, params, names)
+    results: Results = {}
     bar = _Progress(len(jobs), progress)
-    for name, mesh, params in jobs:
-        stl = stl_bytes(mesh)
-        key = _key_from_stl(stl, params)
-        if key in pending:
-            pending[key][2].append(name)
-            continue
-        hit = None if cache is None or force else cache.meshes(key)
-        if hit is not None:
-            results[name] = (hit, True)
-            bar.step(f"{name} (cached)")
-        else:
-            pending[key] = (stl, params, [name])
+    pending = _pending(jobs, None if force else cache, results, bar)
 
     def finish(key: str, blobs: list[bytes]) -> None:
         _, params, job_names = pending[key]
@@ -106,30 +98,51 @@ def parallel_decompose(
             results[job_name] = ([mesh_from_stl(b) for b in blobs], False)
             bar.step(job_name)
 
-    workers = n_jobs if n_jobs > 0 else (os.cpu_count() or 1)
-    workers = min(workers, len(pending))
+    workers = min(n_jobs if n_jobs > 0 else (os.cpu_count() or 1), len(pending))
     if workers <= 1:
         for key, (stl, params, job_names) in pending.items():
             stats["decomposed"] += 1
             finish(key, _run_job(job_names[0], stl, params))
     elif pending:
-        # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
-        ctx = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
-        ) as pool:
-            futures = {}
-            for key, (stl, params, job_names) in pending.items():
-                stats["decomposed"] += 1
-                futures[pool.submit(_run_job, job_names[0], stl, params)] = key
-            try:
-                for fut in concurrent.futures.as_completed(futures):
-                    finish(futures[fut], fut.result())
-            except BaseException:
-                for fut in futures:
-                    fut.cancel()
-                raise
+        stats["decomposed"] += len(pending)  # all submitted at once
+        _run_in_pool(pending, workers, finish)
     return {name: results[name] for name in names}
+
+
+def _pending(
+    jobs: list[tuple[str, trimesh.Trimesh, DecompParams]], cache: HullCache | None, results: Results, bar: _Progress
+) -> Pending:
+    """The jobs to run, one per key; cache hits go straight into ``results``."""
+    pending: Pending = {}
+    for name, mesh, params in jobs:
+        stl = stl_bytes(mesh)
+        key = _key_from_stl(stl, params)
+        if key in pending:
+            pending[key][2].append(name)
+            continue
+        hit = None if cache is None else cache.meshes(key)
+        if hit is not None:
+            results[name] = (hit, True)
+            bar.step(f"{name} (cached)")
+        else:
+            pending[key] = (stl, params, [name])
+    return pending
+
+
+def _run_in_pool(pending: Pending, workers: int, finish: Callable[[str, list[bytes]], None]) -> None:
+    # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
+    ctx = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(
+        workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+    ) as pool:
+        futures = {pool.submit(_run_job, names[0], stl, params): key for key, (stl, params, names) in pending.items()}
+        try:
+            for fut in concurrent.futures.as_completed(futures):
+                finish(futures[fut], fut.result())
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
 
 
 def _run_job(name: str, stl: bytes, params: DecompParams) -> list[bytes]:

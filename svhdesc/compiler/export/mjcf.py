@@ -349,6 +349,13 @@ def scene_tree(robot: Robot, model_file: str) -> etree._Element:
     root = etree.Element("mujoco", model=f"{robot.name} scene")
     sub(root, "include", file=model_file)
     sub(root, "statistic", center=nums((0.0, 0.0, floor_z / 2.0 + 0.1)), extent=num(max(0.4, 2.0 * abs(floor_z))))
+    _scene_looks(root)
+    _scene_ground(root, floor_z, pedestal)
+    return root
+
+
+def _scene_looks(root: etree._Element) -> None:
+    """Light, haze, sky and the checkered floor's material."""
     visual = sub(root, "visual")
     sub(visual, "headlight", diffuse="0.6 0.6 0.6", ambient="0.3 0.3 0.3", specular="0 0 0")
     sub(visual, "rgba", haze="0.15 0.25 0.35 1")
@@ -386,6 +393,9 @@ def scene_tree(robot: Robot, model_file: str) -> etree._Element:
         texrepeat="5 5",
         reflectance="0.2",
     )
+
+
+def _scene_ground(root: etree._Element, floor_z: float, pedestal: float) -> None:
     worldbody = sub(root, "worldbody")
     sub(worldbody, "light", pos="0 0 1.5", dir="0 0 -1", directional="true")
     if pedestal and floor_z < 0:
@@ -407,4 +417,3 @@ def scene_tree(robot: Robot, model_file: str) -> etree._Element:
         type="plane",
         material="groundplane",
     )
-    return root

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -23,28 +23,16 @@ class Variant:
     name: str
     xacro: Path
     args: dict[str, str]
-    settings: dict[str, Any]  # merged defaults + overrides, checked, defaults filled (mappings, for the stages)
+    settings: Settings  # merged defaults + overrides, checked, defaults filled: each stage reads its section
     config_dir: Path
-    typed: Settings | None = field(default=None, compare=False)  # the same values, typed
 
     @property
-    def sections(self) -> Settings:
-        """The typed settings (checked again from ``settings`` for a Variant built without them)."""
-        return self.typed if self.typed is not None else normalise(self.settings, str(self.config_dir))[0]
-
-    @property
-    def hand(self) -> dict[str, Any]:
-        return self.settings["hand"]
-
-    @property
-    def arm(self) -> dict[str, Any]:
-        return self.settings["arm"]
-
-    def path(self, key: str) -> Path:
-        return (self.config_dir / self.settings[key]).resolve()
+    def coupling_path(self) -> Path | None:
+        """The coupling spec; None for a robot without couplings."""
+        return (self.config_dir / self.settings.coupling).resolve() if self.settings.coupling else None
 
     def packages(self) -> dict[str, Path]:
-        packages = self.sections.packages
+        packages = self.settings.packages
         return {
             name: resolve_path(d, self.config_dir, where(packages, str(self.config_dir), name))
             for name, d in packages.items()
@@ -156,7 +144,7 @@ def load_config(path: Path) -> Config:
             raise SvhdescError(f"{where(entry, at, bad[0])}: variant {name}: unknown key(s) {sorted(map(str, bad))}")
         overrides = Node({k: v for k, v in entry.items() if k not in {"xacro", "args"}})
         overrides.where, overrides.lines = at, dict(getattr(entry, "lines", {}))
-        typed, settings = normalise(_merge(defaults, overrides), at)
+        settings = normalise(_merge(defaults, overrides), at)
         xacro = entry["xacro"]
         if not isinstance(xacro, str) or not xacro:
             raise SvhdescError(f"{where(entry, at, 'xacro')}: variant {name}: 'xacro' must be a file name")
@@ -165,5 +153,5 @@ def load_config(path: Path) -> Config:
             raise SvhdescError(f"{where(entry, at, 'args')}: variant {name}: 'args' must map names to values")
         xacro_path = resolve_path(xacro, path.parent, f"{where(entry, at, 'xacro')}: variant {name}: 'xacro'")
         args = {str(k): str(v) for k, v in args.items()}
-        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve(), typed)
+        variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve())
     return Config(path, variants, tuple(files))

@@ -22,7 +22,6 @@ __all__ = [
     "CouplingSpec",
     "CouplingWarning",
     "apply_spec",
-    "couple",
     "image",
     "linearise",
     "load_spec",
@@ -144,13 +143,6 @@ def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str,
             f"{lines[coupling.joint]}: coupled joint {coupling.joint} is in {kind} of couplings ({path}); "
             "every coupled joint must follow a channel directly"
         )
-
-
-def couple(robot: Robot, spec_path: Path | None, prefix: str | None, *, widen_limits: bool = False) -> Robot:
-    """The robot with the couplings of the spec at ``spec_path`` set; unchanged when it has none."""
-    if spec_path is None:
-        return robot
-    return apply_spec(robot, load_spec(spec_path), prefix, widen_limits=widen_limits)
 
 
 def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str | None, *, widen_limits: bool = False) -> Robot:

@@ -2,8 +2,7 @@
 
 Each section is a frozen dataclass; its fields are the keys a config may write (anything else is
 refused), their defaults are the only defaults, and each field's ``check`` is applied where the
-value is read, naming the config file and line. ``normalise`` returns the typed settings and,
-for the stages that still take mappings, the same values as a plain mapping (lines kept).
+value is read, naming the config file and line. ``normalise`` returns the typed settings.
 """
 
 from __future__ import annotations
@@ -439,12 +438,12 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
     return cls(**typed, where=here, lines=dict(plain.lines)), plain
 
 
-def normalise(settings: dict[str, Any], at: str) -> tuple[Settings, Node]:
+def normalise(settings: dict[str, Any], at: str) -> Settings:
     """Check every value of one variant's merged settings; fill the defaults."""
-    typed, plain = _section(Settings, settings, f"{at}: ")
+    typed = _section(Settings, settings, f"{at}: ")[0]
     if not typed.hand.prefix:
         _check_no_hand_patterns(typed)
-    return typed, plain
+    return typed
 
 
 def _check_no_hand_patterns(settings: Settings) -> None:

@@ -107,7 +107,7 @@ def _materials(root: etree._Element, files: Sequence[Path], source: Path) -> dic
 def _geometry(
     element: etree._Element,
     link: str,
-    materials: dict,
+    materials: dict[str, tuple[float, ...]],
     packages: Mapping[str, Path],
     source: Path,
     where: str,
@@ -165,6 +165,73 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
 
 
+def _link(
+    element: etree._Element,
+    materials: dict[str, tuple[float, ...]],
+    packages: Mapping[str, Path],
+    source: Path,
+    files: list[Path],
+) -> Link:
+    name = element.get("name")
+    where = f"{locate(files, 'link', name, source)}: link {name}"
+    if not name:
+        raise SvhdescError(f"{where}: a link needs a name")
+    return Link(
+        name=name,
+        inertial=_inertial(element.find("inertial"), where),
+        visuals=tuple(_geometry(v, name, materials, packages, source, where) for v in element.findall("visual")),
+        collisions=tuple(_geometry(c, name, materials, packages, source, where) for c in element.findall("collision")),
+    )
+
+
+def _joint_ends(element: etree._Element, where: str, links: list[str]) -> list[str]:
+    ends = []
+    for tag in ("parent", "child"):
+        end = element.find(tag)
+        if end is None or not end.get("link"):
+            raise SvhdescError(f"{where}: needs <{tag} link=...>")
+        if end.get("link") not in links:
+            raise SvhdescError(f"{where}: unknown {tag} link '{end.get('link')}'")
+        ends.append(end.get("link"))
+    return ends
+
+
+def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> Joint:
+    kind = element.get("type")
+    if kind not in {"revolute", "continuous", "prismatic", "fixed"}:
+        raise SvhdescError(f"{where}: unsupported joint type {kind!r}")
+    limit = element.find("limit")
+    dynamics = element.find("dynamics")
+    ends = _joint_ends(element, where, links)
+    axis_element = element.find("axis")
+    axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
+    if kind != "fixed" and math.hypot(*axis) < 1e-9:
+        raise SvhdescError(f"{where}: zero joint axis {axis}")
+    lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+    if kind in {"revolute", "prismatic"} and lower > upper:
+        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}")
+    effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
+    damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
+    for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
+        if value < 0:
+            raise SvhdescError(f"{where}: {label} must be >= 0, got {value}")
+    return Joint(
+        name=name,
+        type=kind,
+        parent=ends[0],
+        child=ends[1],
+        origin=_pose(element.find("origin"), where),
+        axis=axis,  # type: ignore[arg-type]
+        lower=lower,
+        upper=upper,
+        effort=effort,
+        velocity=velocity,
+        damping=damping,
+        friction=friction,
+        source=where,
+    )
+
+
 def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, files: Sequence[Path] = ()) -> Robot:
     """Read links and joints; mimic tags in the source are dropped (the coupling spec decides).
 
@@ -172,24 +239,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     """
     files = list(files) or [source]
     materials = _materials(root, files, source)
-    links = []
-    for element in root.findall("link"):
-        name = element.get("name")
-        where = f"{locate(files, 'link', name, source)}: link {name}"
-        if not name:
-            raise SvhdescError(f"{where}: a link needs a name")
-        links.append(
-            Link(
-                name=name,
-                inertial=_inertial(element.find("inertial"), where),
-                visuals=tuple(
-                    _geometry(v, name, materials, packages, source, where) for v in element.findall("visual")
-                ),
-                collisions=tuple(
-                    _geometry(c, name, materials, packages, source, where) for c in element.findall("collision")
-                ),
-            )
-        )
+    links = [_link(element, materials, packages, source, files) for element in root.findall("link")]
     names = [link.name for link in links]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
@@ -204,48 +254,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
         if name in joint_names:
             raise SvhdescError(f"{locate(files, 'joint', name, source, nth=2)}: duplicate joint '{name}'")
         joint_names.add(name)
-        kind = element.get("type")
-        if kind not in {"revolute", "continuous", "prismatic", "fixed"}:
-            raise SvhdescError(f"{where}: unsupported joint type {kind!r}")
-        limit = element.find("limit")
-        dynamics = element.find("dynamics")
-        ends = []
-        for tag in ("parent", "child"):
-            end = element.find(tag)
-            if end is None or not end.get("link"):
-                raise SvhdescError(f"{where}: needs <{tag} link=...>")
-            if end.get("link") not in names:
-                raise SvhdescError(f"{where}: unknown {tag} link '{end.get('link')}'")
-            ends.append(end.get("link"))
-        axis_element = element.find("axis")
-        axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
-        if kind != "fixed" and math.hypot(*axis) < 1e-9:
-            raise SvhdescError(f"{where}: zero joint axis {axis}")
-        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
-        if kind in {"revolute", "prismatic"} and lower > upper:
-            raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}")
-        effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
-        damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
-        for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
-            if value < 0:
-                raise SvhdescError(f"{where}: {label} must be >= 0, got {value}")
-        joints.append(
-            Joint(
-                name=name,
-                type=kind,
-                parent=ends[0],
-                child=ends[1],
-                origin=_pose(element.find("origin"), where),
-                axis=axis,  # type: ignore[arg-type]
-                lower=lower,
-                upper=upper,
-                effort=effort,
-                velocity=velocity,
-                damping=damping,
-                friction=friction,
-                source=where,
-            )
-        )
+        joints.append(_joint(element, name, where, names))
     children = {j.child for j in joints}
     roots = [n for n in names if n not in children]
     if len(roots) != 1:

@@ -10,6 +10,8 @@ import numpy as np
 from svhdesc.compiler.settings.coupling import propagate
 from svhdesc.compiler.settings.schema import Arm, Hand, Transmissions
 from svhdesc.compiler.settings.yamlio import where
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.stages.inertials import link_solid
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Actuator, Channel, ForceSensor, Joint, Keyframe, Robot, Transmission
 
@@ -29,8 +31,9 @@ def arm_joints(robot: Robot, arm: Arm) -> list[str]:
     return list(arm.joints)
 
 
-def add_actuation(robot: Robot, hand: Hand, arm: Arm, transmissions: Transmissions) -> Robot:
+def add_actuation(robot: Robot, assets: Assets, section: tuple[Hand, Arm, Transmissions]) -> Robot:
     """Channels and arm joints become position actuators with ros_control transmissions."""
+    hand, arm, transmissions = section
     interface = INTERFACES[transmissions.interface]
     joints = {j.name: j for j in robot.joints}
     channel_of = {c.joint: c for c in robot.channels}
@@ -79,9 +82,11 @@ def _solref(values: list[float] | None) -> tuple[float, float] | None:
     return (values[0], values[1]) if values else None
 
 
-def add_keyframes(robot: Robot, keyframes: dict[str, Any], optional: set[str]) -> Robot:
-    """Keyframes name hand channels by channel name (a joint's own name otherwise); ``optional`` joints the
-    variant lacks are left out."""
+def add_keyframes(robot: Robot, assets: Assets, section: tuple[dict[str, Any], Hand, Arm]) -> Robot:
+    """Keyframes name hand channels by channel name (a joint's own name otherwise); arm joints the variant
+    lacks are left out."""
+    keyframes, _, arm = section
+    optional = set(arm.joints)
     channel_joint = {c.name: c.joint for c in robot.channels}
     channel_names = set(channel_joint)
     movable = {j.name for j in robot.joints if j.movable}
@@ -103,14 +108,15 @@ def add_keyframes(robot: Robot, keyframes: dict[str, Any], optional: set[str]) -
     return replace(robot, keyframes=tuple(frames))
 
 
-def add_force_sensor(robot: Robot, hand: Hand, solid_bounds: dict[str, np.ndarray]) -> Robot:
+def add_force_sensor(robot: Robot, assets: Assets, hand: Hand) -> Robot:
     """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
-    if not hand.force_sensor:
-        return robot
-    link = hand.link(hand.force_sensor)
-    if link not in solid_bounds:
+    link = hand.link(hand.force_sensor or "")
+    tip = next((candidate for candidate in robot.links if candidate.name == link), None)
+    if not hand.force_sensor or tip is None:
+        return robot  # a missing link is the name check's to report (check_hand_names)
+    if not tip.collisions:
         raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: link {link} has no geometry")
-    low, high = solid_bounds[link]
+    low, high = np.array(link_solid(tip, assets).bounds)
     centre = tuple(float(v) for v in (low + high) / 2.0)
     size = float(np.max(high - low)) / 2.0 + 0.002
     return replace(robot, sensors=(ForceSensor(f"{link}_force", link, centre, size),))  # type: ignore[arg-type]

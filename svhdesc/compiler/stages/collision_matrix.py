@@ -53,6 +53,35 @@ def _probe(model: Any, data: Any, mujoco: Any) -> tuple[set[tuple[int, int]], se
     return {(int(a), int(b)) for a, b in touching}, {(int(a), int(b)) for a, b in bodies}
 
 
+def _sample(
+    robot: Robot, model: Any, data: Any, samples: int, seed: int
+) -> tuple[dict[tuple[int, int], int], set[tuple[int, int]]]:
+    """Over ``samples`` random postures (actuated joints uniform in their limits, coupled ones following):
+    how often each body pair touches, and every pair that comes near."""
+    import mujoco
+
+    joints = {j.name: j for j in robot.joints}
+    actuated = [a.joint for a in robot.actuators]
+    coupled = [(j.name, j.mimic.joint, j.mimic.coeffs) for j in robot.joints if j.mimic]
+    address = {name: model.joint(name).qposadr[0] for name in actuated + [c[0] for c in coupled]}
+    low = np.array([joints[n].lower for n in actuated])
+    high = np.array([joints[n].upper for n in actuated])
+    rng = np.random.default_rng(seed)
+    touching: dict[tuple[int, int], int] = {}
+    near: set[tuple[int, int]] = set()
+    for _ in range(samples):
+        values = dict(zip(actuated, rng.uniform(low, high)))
+        for name, follows, coeffs in coupled:
+            values[name] = sum(c * values[follows] ** k for k, c in enumerate(coeffs))
+        for name, value in values.items():
+            data.qpos[address[name]] = value
+        hits, close = _probe(model, data, mujoco)
+        for pair in hits:
+            touching[pair] = touching.get(pair, 0) + 1
+        near |= close
+    return touching, near
+
+
 def collision_matrix(
     robot: Robot, assets: Assets, samples: int = SAMPLES, seed: int = SEED
 ) -> dict[tuple[str, str], str]:
@@ -83,25 +112,7 @@ def collision_matrix(
         if first in name_of and second in name_of:
             reasons.setdefault(key(name_of[first], name_of[second]), "Default")
     model, data = compiled(list(reasons))
-    joints = {j.name: j for j in robot.joints}
-    actuated = [a.joint for a in robot.actuators]
-    coupled = [(j.name, j.mimic.joint, j.mimic.coeffs) for j in robot.joints if j.mimic]
-    address = {name: model.joint(name).qposadr[0] for name in actuated + [c[0] for c in coupled]}
-    low = np.array([joints[n].lower for n in actuated])
-    high = np.array([joints[n].upper for n in actuated])
-    rng = np.random.default_rng(seed)
-    touching: dict[tuple[int, int], int] = {}
-    near: set[tuple[int, int]] = set()
-    for _ in range(samples):
-        values = dict(zip(actuated, rng.uniform(low, high)))
-        for name, follows, coeffs in coupled:
-            values[name] = sum(c * values[follows] ** k for k, c in enumerate(coeffs))
-        for name, value in values.items():
-            data.qpos[address[name]] = value
-        hits, close = _probe(model, data, mujoco)
-        for pair in hits:
-            touching[pair] = touching.get(pair, 0) + 1
-        near |= close
+    touching, near = _sample(robot, model, data, samples, seed)
     for a in range(len(colliding)):
         for b in range(a + 1, len(colliding)):
             pair_key = key(colliding[a], colliding[b])

@@ -45,6 +45,23 @@ def _rule(entry: dict[str, Any], base: CollisionRule, global_params: dict[str, A
     return CollisionRule(mode, primitive, params, link_class)
 
 
+def _classes(
+    collision: dict[str, Any], at: str, default: CollisionRule, global_params: dict[str, Any], hand_prefix: str | None
+) -> list[tuple[list[str], CollisionRule]]:
+    """(link patterns, rule) of each entry of ``collision.classes``, in order."""
+    classes = []
+    entries = collision.get("classes") or []
+    if not isinstance(entries, list):
+        raise SvhdescError(f"{where(collision, at, 'classes')}: collision.classes must be a list")
+    for index, entry in enumerate(entries):
+        label = f"{where(entry, where(collision, at, 'classes'))}: collision.classes[{index}]"
+        if not isinstance(entry, dict) or not isinstance(entry.get("links", []), list):
+            raise SvhdescError(f"{label}: must be a mapping with a list of 'links'")
+        patterns = [str(p).format(hand=hand_prefix or "") for p in entry.get("links", [])]
+        classes.append((patterns, _rule(entry, default, global_params, label)))
+    return classes
+
+
 def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str | None) -> dict[str, CollisionRule]:
     """Rule per link with collision geometry: first matching class, then per-link overrides."""
     at = where(collision, "collision")
@@ -60,16 +77,7 @@ def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str | 
         {},
         f"{where(collision, at, 'mode')}: collision",
     )
-    classes = []
-    entries = collision.get("classes") or []
-    if not isinstance(entries, list):
-        raise SvhdescError(f"{where(collision, at, 'classes')}: collision.classes must be a list")
-    for index, entry in enumerate(entries):
-        label = f"{where(entry, where(collision, at, 'classes'))}: collision.classes[{index}]"
-        if not isinstance(entry, dict) or not isinstance(entry.get("links", []), list):
-            raise SvhdescError(f"{label}: must be a mapping with a list of 'links'")
-        patterns = [str(p).format(hand=hand_prefix or "") for p in entry.get("links", [])]
-        classes.append((patterns, _rule(entry, default, global_params, label)))
+    classes = _classes(collision, at, default, global_params, hand_prefix)
     overrides = collision.get("links") or {}
     if not isinstance(overrides, dict) or not all(isinstance(v, dict) for v in overrides.values()):
         raise SvhdescError(f"{where(collision, at, 'links')}: collision.links must map links to rules")

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 from svhdesc.compiler.settings import schema as settings
 from svhdesc.compiler.settings.schema import CONTACT_MODELS, Hand
+from svhdesc.compiler.stages.assets import Assets
 from svhdesc.ir import Contact, Robot
 
 
@@ -14,8 +15,9 @@ def fingertip_links(robot: Robot, hand: Hand) -> list[str]:
     return [hand.link(tip) for tip in hand.fingertips if hand.link(tip) in names]
 
 
-def add_contact(robot: Robot, contact: settings.Contact, hand: Hand) -> Robot:
+def add_contact(robot: Robot, assets: Assets, section: tuple[settings.Contact, Hand]) -> Robot:
     """Fingertips get the selected grasp contact model; every other link hard-finger friction."""
+    contact, hand = section
     condim = CONTACT_MODELS[contact.model]
     tips = set(fingertip_links(robot, hand))
     tip = Contact(

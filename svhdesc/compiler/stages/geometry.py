@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -83,11 +83,17 @@ def fit_primitive(mesh: trimesh.Trimesh, shape: str, origin: Geometry) -> Geomet
     return Geometry(shape, pose, size)
 
 
-def bake_meshes(
-    robot: Robot, assets: Assets, rules: dict[str, CollisionRule] | None = None, hulls: HullSource | None = None
-) -> Robot:
+@dataclass(frozen=True)
+class Meshes:
+    """What baking reads: each link's collision rule (from the plan) and where decompositions come from."""
+
+    rules: dict[str, CollisionRule]
+    hulls: HullSource | None = None
+
+
+def bake_meshes(robot: Robot, assets: Assets, section: Meshes) -> Robot:
     """Replace every mesh reference by assets; scales are baked into the vertices."""
-    rules = rules or {}
+    rules, hulls = section.rules, section.hulls
     stems: dict[str, str] = {}  # asset stem -> source file, to catch two sources with one name
     done: dict[tuple, list[Geometry]] = {}
 

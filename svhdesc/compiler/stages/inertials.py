@@ -11,7 +11,7 @@ import numpy as np
 import trimesh
 
 from svhdesc.compiler import exact
-from svhdesc.compiler.settings.schema import Mass, expand_hand
+from svhdesc.compiler.settings.schema import Hand, Mass, expand_hand
 from svhdesc.compiler.source.meshes import principal_cylinder
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.errors import SvhdescError
@@ -79,7 +79,9 @@ class InertialWarning(UserWarning):
     """A source inertial was replaced by one computed from the link's geometry."""
 
 
-def add_inertials(robot: Robot, assets: Assets, mass: Mass, hand_prefix: str | None) -> Robot:
+def add_inertials(robot: Robot, assets: Assets, section: tuple[Mass, Hand]) -> Robot:
+    mass, hand = section
+    hand_prefix = hand.prefix
     explicit_full = mass.explicit_inertials
     solids = {link.name: link_solid(link, assets) for link in robot.links if link.has_geometry}
     masses = _masses(robot, solids, mass, set(explicit_full), hand_prefix)

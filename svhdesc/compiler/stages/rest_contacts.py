@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from svhdesc.compiler.export.mjcf import export_mjcf
 from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.stages.collisions import add_excludes
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 
@@ -26,3 +27,8 @@ def touching_at_rest(robot: Robot, assets: Assets) -> set[tuple[str, str]]:
         bodies = [model.body(model.geom_bodyid[g]).name for g in (contact.geom1, contact.geom2)]
         pairs.add((bodies[0], bodies[1]))
     return pairs
+
+
+def exclude_touching(robot: Robot, assets: Assets, section: None = None) -> Robot:
+    """The exclusions processor: adjacent pairs, and the pairs this probe finds touching at rest."""
+    return add_excludes(robot, lambda r: touching_at_rest(r, assets))

@@ -23,11 +23,12 @@ def check_hand_names(robot: Robot, hand: Hand) -> None:
         raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: no link {hand.link(tip)}")
 
 
-def check_unique_names(robot: Robot, hand: Hand, arm: Arm) -> None:
+def check_unique_names(robot: Robot, section: tuple[Hand, Arm]) -> None:
     """One name per element of a kind in the final model: MuJoCo refuses a repeat, URDF tools pick one silently.
 
     Links and joints are checked where the xacro is read; here also whatever the stages added.
     """
+    hand, arm = section
     joints = [j.name for j in robot.joints]
     kinds = (
         ("link", [link.name for link in robot.links], lambda i: robot.name),
@@ -68,7 +69,9 @@ def check_driven(robot: Robot) -> None:
             raise SvhdescError(f"{joint.source}: an actuated joint needs lower < upper")
 
 
-def check_keyframes(robot: Robot, keyframes: dict[str, Any], at: str) -> None:
+def check_keyframes(robot: Robot, section: tuple[dict[str, Any], str]) -> None:
+    """Every keyframe inside the joint limits; ``section``: the keyframes and where the settings were written."""
+    keyframes, at = section
     joints = {j.name: j for j in robot.joints}
     for frame in robot.keyframes:
         for name, value in frame.qpos:

@@ -5,10 +5,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 from svhdesc.compiler.settings.schema import Scene, Simulation
+from svhdesc.compiler.stages.assets import Assets
 from svhdesc.ir import Ground, Physics, Robot
 
 
-def add_world(robot: Robot, simulation: Simulation, scene: Scene) -> Robot:
+def add_world(robot: Robot, assets: Assets, section: tuple[Simulation, Scene]) -> Robot:
+    simulation, scene = section
     physics = Physics(
         timestep=simulation.timestep,
         noslip_iterations=simulation.noslip_iterations,

@@ -103,12 +103,12 @@ def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
 
 def hull_caps(variant: str) -> dict[str, int]:
     """Link -> max_convex_hull of its decomposition, as the config resolves it (classes, then per-link overrides)."""
-    from svhdesc.compiler.build.pipeline import decomposition_plan, read_source
+    from svhdesc.compiler.build.pipeline import plan_variant
     from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.settings.config import load_config
 
     selected = load_config(REPO / "config" / "svhdesc.yaml").select([variant])[0]
-    jobs = decomposition_plan(selected, read_source(selected, {}, Timings()))
+    jobs = plan_variant(selected, {}, None, Timings()).jobs
     return {link: params.max_convex_hull for link, _, params in jobs}
 
 

@@ -23,9 +23,9 @@ def test_servo_gain_and_drive_damping_are_written_once(variant: str) -> None:
     root = etree.parse(str(svhdesc.get(variant).mjcf_path)).getroot()
     settings = load_config(default_config()).variants[variant].settings
     servo = _classes(root)["servo"].find("position")
-    assert float(servo.get("kp")) == settings["hand"]["kp"]
+    assert float(servo.get("kp")) == settings.hand.kp
     drive = _classes(root)["drive"].find("joint")
-    assert float(drive.get("damping")) == settings["hand"]["joint_damping"]
+    assert float(drive.get("damping")) == settings.hand.joint_damping
     hand = [a for a in root.find("actuator") if a.get("class") == "servo"]
     assert len(hand) == 9 and all(a.get("kp") is None and a.get("dampratio") is None for a in hand)
     joints = root.find("worldbody").iter("joint")

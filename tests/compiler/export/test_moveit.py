@@ -64,7 +64,7 @@ def test_srdf_names_exist_in_the_urdf(variant: str) -> None:
             assert float(limit.get("lower")) - 1e-9 <= value <= float(limit.get("upper")) + 1e-9
             assert value == pytest.approx(ctrl[name])
     # Every keyframe (home, test and the grasp postures) becomes a group state.
-    keyframes = set(load_config(REPO / "config" / "svhdesc.yaml").variants[variant].settings["keyframes"])
+    keyframes = set(load_config(REPO / "config" / "svhdesc.yaml").variants[variant].settings.keyframes)
     assert {"home", "test", "pinch"} <= keyframes
     assert {s.get("name") for s in srdf.iterfind("group_state")} == keyframes
 

@@ -85,7 +85,7 @@ def test_a_robot_without_hand_or_couplings_builds(tmp_path: Path) -> None:
     source = project(tmp_path)
     (source / "mini.yaml").write_text(NO_HAND)
     config = load_config(source / "mini.yaml")
-    sections = config.variants["mini"].sections
+    sections = config.variants["mini"].settings
     assert sections.hand.prefix is None and sections.coupling is None
     build(source / "mini.yaml", tmp_path / "out")
     tree = urdf(tmp_path / "out")

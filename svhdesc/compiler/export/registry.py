@@ -1,0 +1,101 @@
+"""The registry of outputs: every file a built variant holds besides its assets, and the exporter that makes it.
+
+Add a format by adding an entry here; the build writes each entry (``{robot}`` in a name is the variant's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+from svhdesc.compiler.export import batch
+from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
+from svhdesc.compiler.export.moveit import (
+    export_joint_limits,
+    export_kinematics,
+    export_moveit_controllers,
+    export_moveit_launch,
+    export_ros_controllers,
+    export_srdf,
+)
+from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
+from svhdesc.compiler.export.ros import export_connector, export_launch, export_node_script
+from svhdesc.compiler.export.urdf import export_urdf
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.stages.batch_sizing import sample_capacities
+from svhdesc.compiler.stages.collision_matrix import collision_matrix
+from svhdesc.ir import Robot
+from svhdesc.model import NODE_SCRIPT
+
+EXECUTABLE = 0o755
+
+
+@dataclass
+class Built:
+    """What the exporters read: the compiled robot, its assets (already written under ``directory``/assets)."""
+
+    robot: Robot
+    assets: Assets
+    directory: Path
+    version: str  # svhdesc's, for package.xml
+
+    @cached_property
+    def mjcf(self) -> bytes:
+        return export_mjcf(self.robot)
+
+    @cached_property
+    def damping(self) -> dict[str, float]:
+        """Each position servo's velocity gain, as MuJoCo derives it from ``dampratio`` at compile time."""
+        import mujoco
+
+        files = {f"assets/{k}": v for k, v in self.assets.files.items()}
+        model = mujoco.MjModel.from_xml_string(self.mjcf.decode(), files)
+        return {model.actuator(a).name: float(-model.actuator_biasprm[a, 2]) for a in range(model.nu)}
+
+
+def _always(robot: Robot) -> bool:
+    return True
+
+
+def _moveit(robot: Robot) -> bool:
+    """MoveIt's configuration plans a hand: only a robot with channels gets one."""
+    return bool(robot.channels)
+
+
+@dataclass(frozen=True)
+class Output:
+    name: str  # relative path; "{robot}" is the variant's name
+    export: Callable[[Built], bytes]
+    when: Callable[[Robot], bool] = _always
+    stage: str = "export"  # its line in --timings
+    executable: bool = False
+
+
+def _batch_model(built: Built) -> bytes:
+    """The batch model, its capacities sized by stepping the unsized model in MuJoCo C."""
+    robot = built.robot
+    scene = batch.export_batch_scene(robot)
+    unsized = batch.export_batch(robot, None)
+    capacities = sample_capacities(scene, batch.model_file(robot.name), unsized, built.directory / "assets")
+    return batch.export_batch(robot, capacities)
+
+
+OUTPUTS: tuple[Output, ...] = (
+    Output("package.xml", lambda b: export_package_xml(b.robot, b.version)),
+    Output("{robot}.urdf", lambda b: export_urdf(b.robot, mesh_uri_prefix(b.robot))),
+    Output("{robot}.xml", lambda b: b.mjcf),
+    Output("scene.xml", lambda b: export_scene(b.robot, f"{b.robot.name}.xml")),
+    Output("config/connector.yaml", lambda b: export_connector(b.robot, b.damping)),
+    Output("launch/sim.launch", lambda b: export_launch(b.robot, f"{b.robot.name}.urdf")),
+    Output(f"scripts/{NODE_SCRIPT}", lambda b: export_node_script(b.robot), executable=True),
+    Output("config/{robot}.srdf", lambda b: export_srdf(b.robot, collision_matrix(b.robot, b.assets)), _moveit),
+    Output("config/kinematics.yaml", lambda b: export_kinematics(b.robot), _moveit),
+    Output("config/joint_limits.yaml", lambda b: export_joint_limits(b.robot), _moveit),
+    Output("config/moveit_controllers.yaml", lambda b: export_moveit_controllers(b.robot), _moveit),
+    Output("config/ros_controllers.yaml", lambda b: export_ros_controllers(b.robot, b.damping), _moveit),
+    Output("launch/moveit.launch", lambda b: export_moveit_launch(b.robot), _moveit),
+    Output(batch.model_file("{robot}"), _batch_model, stage="batch"),
+    Output(batch.SCENE_FILE, lambda b: batch.export_batch_scene(b.robot), stage="batch"),
+)

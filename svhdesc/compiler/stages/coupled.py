@@ -1,0 +1,30 @@
+"""The coupling processor: the spec's channels and couplings onto the robot's joints."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+from svhdesc.compiler.export.urdf import mimic_order_problems
+from svhdesc.compiler.settings.coupling import CouplingSpec, apply_spec
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.ir import Robot
+
+
+@dataclass(frozen=True)
+class Coupled:
+    """What coupling reads: the loaded spec (an input of the plan), the hand's prefix, ``coupled_limits``."""
+
+    spec: CouplingSpec | None  # None: a robot without couplings
+    prefix: str | None
+    widen_limits: bool
+
+
+def couple(robot: Robot, assets: Assets, section: Coupled) -> Robot:
+    if section.spec is None:
+        return robot
+    robot = apply_spec(robot, section.spec, section.prefix, widen_limits=section.widen_limits)
+    for problem in mimic_order_problems(robot):
+        # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
+        warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)
+    return robot
