@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import replace
 from functools import wraps
 from pathlib import Path
@@ -572,22 +572,8 @@ def compare_command(
         require("matplotlib", "'svhdesc compare --plots'")
     if variant not in svhdesc.variants():
         raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc.variants())}")
-    names = [n.strip() for n in engines.split(",") if n.strip()]
-    unknown = [n for n in names if n not in ENGINES]
-    if unknown or not names:
-        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(ENGINES)}")
-    settings: list[float | None] = []
-    for text in (t.strip() for t in inertias.split(",")):
-        if text == "physical":
-            settings.append(None)
-            continue
-        try:
-            value = float(text)
-        except ValueError:
-            value = -1.0
-        if not value > 0:
-            raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
-        settings.append(value)
+    names = _engine_names(engines, ENGINES)
+    settings = [_inertia_setting(t.strip()) for t in inertias.split(",")]
 
     from svhdesc.compare.report import markdown, plot, plot_overview, write_csv, write_json
 
@@ -606,6 +592,28 @@ def compare_command(
         overview = plot_overview(results, plots / f"{variant}_compare_force.png")
         for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
             click.echo(f"wrote {path}", err=True)
+
+
+def _engine_names(engines: str, known: Collection[str]) -> list[str]:
+    """`--engines`' comma-separated names, each one of `known`, at least one."""
+    names = [n.strip() for n in engines.split(",") if n.strip()]
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(known)}")
+    return names
+
+
+def _inertia_setting(text: str) -> float | None:
+    """One `--inertias` entry: None for 'physical', else the positive finger-link inertia it names."""
+    if text == "physical":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
+    return value
 
 
 @main.command("sim", context_settings={"ignore_unknown_options": True})
