@@ -348,7 +348,7 @@ def validate_command(
     """
     require_extra("validate", "'svhdesc validate'")
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
-    from svhdesc.validate.report import render_report, write_json
+    from svhdesc.validate.report import all_passed, render_report, write_json
 
     selected = select_checks(checks)
     if config_path is not None:  # an explicit config must be good, not silently skipped
@@ -383,9 +383,7 @@ def validate_command(
         for name, names in failed:
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
-    skipped = sum(len(r.skipped) for r in reports)
-    applicable = f"; {skipped} skipped as not applicable, listed above" if skipped else ""
-    click.echo(f"all checks passed ({len(reports)} model(s){applicable})")
+    click.echo(all_passed(reports))
 
 
 @main.command("render")
