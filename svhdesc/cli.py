@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import replace
 from functools import wraps
 from pathlib import Path
@@ -349,7 +349,7 @@ def validate_command(
     """
     require_extra("validate", "'svhdesc validate'")
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
-    from svhdesc.validate.report import render_report, write_json
+    from svhdesc.validate.report import all_passed, render_report, write_json
 
     selected = select_checks(checks)
     if config_path is not None:  # an explicit config must be good, not silently skipped
@@ -384,9 +384,7 @@ def validate_command(
         for name, names in failed:
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
-    skipped = sum(len(r.skipped) for r in reports)
-    applicable = f"; {skipped} skipped as not applicable, listed above" if skipped else ""
-    click.echo(f"all checks passed ({len(reports)} model(s){applicable})")
+    click.echo(all_passed(reports))
 
 
 @main.command("render")
@@ -573,22 +571,8 @@ def compare_command(
         require("matplotlib", "'svhdesc compare --plots'")
     if variant not in svhdesc.variants():
         raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc.variants())}")
-    names = [n.strip() for n in engines.split(",") if n.strip()]
-    unknown = [n for n in names if n not in ENGINES]
-    if unknown or not names:
-        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(ENGINES)}")
-    settings: list[float | None] = []
-    for text in (t.strip() for t in inertias.split(",")):
-        if text == "physical":
-            settings.append(None)
-            continue
-        try:
-            value = float(text)
-        except ValueError:
-            value = -1.0
-        if not value > 0:
-            raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
-        settings.append(value)
+    names = _engine_names(engines, ENGINES)
+    settings = [_inertia_setting(t.strip()) for t in inertias.split(",")]
 
     from svhdesc.compare.report import markdown, plot, plot_overview, write_csv, write_json
 
@@ -607,6 +591,28 @@ def compare_command(
         overview = plot_overview(results, plots / f"{variant}_compare_force.png")
         for path in [*plot(results, plots, variant), *([overview] if overview else [])]:
             click.echo(f"wrote {path}", err=True)
+
+
+def _engine_names(engines: str, known: Collection[str]) -> list[str]:
+    """`--engines`' comma-separated names, each one of `known`, at least one."""
+    names = [n.strip() for n in engines.split(",") if n.strip()]
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise SvhdescError(f"--engines: unknown engine '{','.join(unknown)}'; choose from {', '.join(known)}")
+    return names
+
+
+def _inertia_setting(text: str) -> float | None:
+    """One `--inertias` entry: None for 'physical', else the positive finger-link inertia it names."""
+    if text == "physical":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise SvhdescError(f"--inertias: '{text}' is neither 'physical' nor a positive number")
+    return value
 
 
 @main.command("sim", context_settings={"ignore_unknown_options": True})

@@ -144,12 +144,32 @@ def _simulate(
     dt = engine.timestep
     total, record_from, ramp_s = experiment.schedule(dt, duration)
     every = max(1, int(round(conditions.sample_dt / dt)))
-    vertical = conditions.force == "vertical"
+    started = time.perf_counter()
+    steps, qpos, force, tips = _step_and_sample(engine, setup, total, ramp_s, every, conditions.force, result)
+    wall = time.perf_counter() - started
+    count = len(qpos)
+    result.simulated_s = steps * dt
+    result.realtime_factor = result.simulated_s / wall if wall > 0 else math.inf
+    result.time = (np.arange(count) + 1) * every * dt
+    result.qpos, result.force = qpos, force
+    result.record_from = min(record_from // every, count)
+    if count:
+        _coupling_residuals(result, setup)
+    if result.status == STATUS_OK:
+        _record_metrics(result, setup, tips, conditions.window)
+
+
+def _step_and_sample(
+    engine: Engine, setup: experiment.Setup, total: int, ramp_s: float, every: int, force_kind: str, result: Result
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """Step the ramp from home to the test pose; every `every` steps sample the joints, the fingertip force and
+    position. A blow-up stops the run and is marked in `result`. The steps taken and the samples."""
+    dt = engine.timestep
+    vertical = force_kind == "vertical"
     samples = total // every
     qpos = np.zeros((samples, len(setup.joints)))
     force, tips = np.zeros(samples), np.zeros((samples, 3))
     count = 0
-    started = time.perf_counter()
     step = -1
     for step in range(total):
         try:
@@ -170,38 +190,38 @@ def _simulate(
             pressed = float(engine.fingertip_force_vector()[2]) if vertical else engine.fingertip_force()
             qpos[count], force[count], tips[count] = q, pressed, tip
             count += 1
-    wall = time.perf_counter() - started
-    result.simulated_s = (step + 1) * dt
-    result.realtime_factor = result.simulated_s / wall if wall > 0 else math.inf
-    result.time = (np.arange(count) + 1) * every * dt
-    result.qpos, result.force = qpos[:count], force[:count]
-    result.record_from = min(record_from // every, count)
-    if count:
-        residual = setup.coupling_residual(result.qpos)
-        if residual.size:
-            worst = np.unravel_index(int(np.argmax(residual)), residual.shape)
-            result.coupling_residual = float(residual[worst])
-            result.worst_coupling = setup.couplings[worst[1]].joint
-            # Free motion (home -> test before the first touch) shows whether the engine keeps the
-            # coupling at all; under the pressing load a soft constraint may also give way.
-            touching = np.flatnonzero(result.force != 0)
-            free = residual[: touching[0]] if len(touching) else residual
-            result.coupling_residual_free = float(free.max()) if len(free) else math.nan
-        else:
-            result.coupling_residual = result.coupling_residual_free = 0.0
-    if result.status != STATUS_OK:
+    return step + 1, qpos[:count], force[:count], tips[:count]
+
+
+def _coupling_residuals(result: Result, setup: experiment.Setup) -> None:
+    """The worst coupling residual over the run, and before the fingertip first touches the surface."""
+    residual = setup.coupling_residual(result.qpos)
+    if not residual.size:
+        result.coupling_residual = result.coupling_residual_free = 0.0
         return
+    worst = np.unravel_index(int(np.argmax(residual)), residual.shape)
+    result.coupling_residual = float(residual[worst])
+    result.worst_coupling = setup.couplings[worst[1]].joint
+    # Free motion (home -> test before the first touch) shows whether the engine keeps the
+    # coupling at all; under the pressing load a soft constraint may also give way.
+    touching = np.flatnonzero(result.force != 0)
+    free = residual[: touching[0]] if len(touching) else residual
+    result.coupling_residual_free = float(free.max()) if len(free) else math.nan
+
+
+def _record_metrics(result: Result, setup: experiment.Setup, tips: np.ndarray, window: str) -> None:
+    """Eq. 5.1's MAD, the force and the fingertip error over the recorded phase (too few samples: failed)."""
     recorded = result.qpos[result.record_from :]
     if len(recorded) < experiment.WINDOW:
         result.status, result.note = STATUS_FAILED, f"only {len(recorded)} samples recorded; run longer"
         return
-    deviations = experiment.mad(recorded, placement=conditions.window)
+    deviations = experiment.mad(recorded, placement=window)
     result.mad = {name: float(v) for name, v in zip(setup.joints, deviations, strict=True)}
     result.mad_average = float(np.mean([result.mad[name] for name in setup.actuated]))
     pressed = result.force[result.record_from :]
     result.force_mean, result.force_std = float(pressed.mean()), float(pressed.std())
     result.contact_share = float(np.mean(pressed != 0))
-    tip_mean = tips[result.record_from : count].mean(axis=0)
+    tip_mean = tips[result.record_from :].mean(axis=0)
     result.tip_error = float(np.linalg.norm(tip_mean - setup.tip_test_position))
     result.reached = result.tip_error <= TIP_TOLERANCE
 

@@ -90,74 +90,77 @@ def read_urdf(text: str) -> tuple[dict[str, Link], list[Joint], list[Mimic]]:
     from lxml import etree
 
     root = etree.fromstring(text.encode())
-    links: dict[str, Link] = {}
-    for element in root.findall("link"):
-        link = Link(element.get("name"))
-        inertial = element.find("inertial")
-        if inertial is not None:
-            frame = origin(inertial)
-            link.mass = float(inertial.find("mass").get("value"))
-            values = inertial.find("inertia")
-            get = {k: float(values.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-            local = np.array(
-                [
-                    [get["ixx"], get["ixy"], get["ixz"]],
-                    [get["ixy"], get["iyy"], get["iyz"]],
-                    [get["ixz"], get["iyz"], get["izz"]],
-                ]
-            )
-            link.com = frame[:3, 3].copy()
-            link.inertia = frame[:3, :3] @ local @ frame[:3, :3].T
-        for collision in element.findall("collision"):
-            mesh = collision.find("geometry/mesh")
-            if mesh is not None:
-                link.meshes.append((Path(mesh.get("filename")), origin(collision)))
-        links[link.name] = link
+    links = {link.name: link for link in map(_link, root.findall("link"))}
     for gazebo in root.findall("gazebo"):
         mu = gazebo.find("mu1")
         if gazebo.get("reference") in links and mu is not None:
             links[gazebo.get("reference")].mu = float(mu.text)
-    joints = []
-    for element in root.findall("joint"):
-        limit = element.find("limit")
-        dynamics = element.find("dynamics")
-        axis = element.find("axis")
-        joints.append(
-            Joint(
-                element.get("name"),
-                element.get("type"),
-                element.find("parent").get("link"),
-                element.find("child").get("link"),
-                origin(element),
-                np.array([float(v) for v in axis.get("xyz").split()]) if axis is not None else np.array([1.0, 0, 0]),
-                float(limit.get("lower", "0")) if limit is not None else -math.inf,
-                float(limit.get("upper", "0")) if limit is not None else math.inf,
-                float(limit.get("effort", "inf")) if limit is not None else math.inf,
-                float(dynamics.get("damping", "0")) if dynamics is not None else 0.0,
-                float(limit.get("velocity", "inf")) if limit is not None else math.inf,
-            )
-        )
-    mimics = []
-    for plugin in root.iter("plugin"):
-        if "mimic_joint_plugin" not in plugin.get("filename", ""):
-            continue
-
-        def text(tag: str, default: str, plugin: Any = plugin) -> str:
-            node = plugin.find(tag)
-            return node.text if node is not None else default
-
-        if plugin.find("hasPID") is not None:
-            raise ValueError(f"mimic plugin {plugin.get('name')} has hasPID: its PID mode is not modelled")
-        mimics.append(
-            Mimic(
-                text("mimicJoint", ""),
-                text("joint", ""),
-                float(text("multiplier", "1")),
-                float(text("offset", "0")),
-                float(text("maxEffort", "nan")),
-            )
-        )
+    joints = [_joint(element) for element in root.findall("joint")]
+    mimics = [_mimic(plugin) for plugin in root.iter("plugin") if "mimic_joint_plugin" in plugin.get("filename", "")]
     return links, joints, mimics
+
+
+def _link(element: Any) -> Link:
+    """A <link>: its inertial (com and inertia in link axes) and its mesh collisions."""
+    link = Link(element.get("name"))
+    inertial = element.find("inertial")
+    if inertial is not None:
+        frame = origin(inertial)
+        link.mass = float(inertial.find("mass").get("value"))
+        values = inertial.find("inertia")
+        get = {k: float(values.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        local = np.array(
+            [
+                [get["ixx"], get["ixy"], get["ixz"]],
+                [get["ixy"], get["iyy"], get["iyz"]],
+                [get["ixz"], get["iyz"], get["izz"]],
+            ]
+        )
+        link.com = frame[:3, 3].copy()
+        link.inertia = frame[:3, :3] @ local @ frame[:3, :3].T
+    for collision in element.findall("collision"):
+        mesh = collision.find("geometry/mesh")
+        if mesh is not None:
+            link.meshes.append((Path(mesh.get("filename")), origin(collision)))
+    return link
+
+
+def _joint(element: Any) -> Joint:
+    """A <joint>, with sdformat's defaults where <limit>, <dynamics> or <axis> is missing."""
+    limit = element.find("limit")
+    dynamics = element.find("dynamics")
+    axis = element.find("axis")
+    return Joint(
+        element.get("name"),
+        element.get("type"),
+        element.find("parent").get("link"),
+        element.find("child").get("link"),
+        origin(element),
+        np.array([float(v) for v in axis.get("xyz").split()]) if axis is not None else np.array([1.0, 0, 0]),
+        float(limit.get("lower", "0")) if limit is not None else -math.inf,
+        float(limit.get("upper", "0")) if limit is not None else math.inf,
+        float(limit.get("effort", "inf")) if limit is not None else math.inf,
+        float(dynamics.get("damping", "0")) if dynamics is not None else 0.0,
+        float(limit.get("velocity", "inf")) if limit is not None else math.inf,
+    )
+
+
+def _mimic(plugin: Any) -> Mimic:
+    """A mimic_joint_plugin's follower, leader and gains (its PID mode is refused: not modelled)."""
+
+    def text(tag: str, default: str) -> str:
+        node = plugin.find(tag)
+        return node.text if node is not None else default
+
+    if plugin.find("hasPID") is not None:
+        raise ValueError(f"mimic plugin {plugin.get('name')} has hasPID: its PID mode is not modelled")
+    return Mimic(
+        text("mimicJoint", ""),
+        text("joint", ""),
+        float(text("multiplier", "1")),
+        float(text("offset", "0")),
+        float(text("maxEffort", "nan")),
+    )
 
 
 def load_obj(path: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -12,6 +12,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -94,13 +95,38 @@ def plan_motion(
 ) -> Plan:
     """Plan ``group`` from ``start`` to ``goal`` (its active joints' values) with everything else at ``rest``."""
     require("ompl", "planning", "plan")
-    from ompl import base as ob
-    from ompl import geometric as og
-
     _ompl_silence()
     if planner not in PLANNERS:
         raise SvhdescError(f"unknown planner '{planner}'; choose from {', '.join(PLANNERS)}")
     joints = config.active(group)
+    _check_ends(config, group, joints, start, goal)
+    scene.set_state(rest)
+    index = scene.joint_index(joints)
+    collision = _ends_in_collision(scene, index, start, goal)
+    if collision is not None:
+        return Plan(False, group, planner, 0.0, joints, message=collision)
+    setup, information = _ompl_setup(scene, config, joints, index, start, goal, planner)
+    began = time.perf_counter()
+    solved = setup.solve(timeout)
+    exact = bool(solved) and str(solved) == "Exact solution"
+    if exact and setup.getSolutionPath().getStateCount() > 2:
+        _simplify(information, setup.getSolutionPath())
+    elapsed = time.perf_counter() - began
+    if not exact:
+        return Plan(False, group, planner, elapsed, joints, message=f"no path found in {timeout} s ({solved})")
+    n = len(joints)
+    path = setup.getSolutionPath()
+    waypoints = [list(path.getState(i)[0:n]) for i in range(path.getStateCount())]
+    waypoints[0], waypoints[-1] = list(map(float, start)), list(map(float, goal))
+    result = Plan(True, group, planner, elapsed, joints, waypoints)
+    time_parameterize(result, config, velocity_scaling, acceleration_scaling)
+    return result
+
+
+def _check_ends(
+    config: MoveItConfig, group: str, joints: list[str], start: Sequence[float], goal: Sequence[float]
+) -> None:
+    """Start and goal have one value per joint of the group, each within the joint's limits."""
     n = len(joints)
     for label, values in (("start", start), ("goal", goal)):
         if len(values) != n:
@@ -110,15 +136,34 @@ def plan_motion(
                 raise SvhdescError(
                     f"{label}: {joint} = {value} is outside [{config.lower[joint]}, {config.upper[joint]}]"
                 )
-    scene.set_state(rest)
-    index = scene.joint_index(joints)
+
+
+def _ends_in_collision(
+    scene: CollisionScene, index: np.ndarray, start: Sequence[float], goal: Sequence[float]
+) -> str | None:
+    """Why the start or the goal state is in collision (the first pair), or None."""
     for label, values in (("start", start), ("goal", goal)):
         pairs = scene.colliding_pairs(index, values)
         if pairs:
             a, b, depth = pairs[0]
-            return Plan(
-                False, group, planner, 0.0, joints, message=f"{label} state in collision: {a}-{b} {depth:.4f} m"
-            )
+            return f"{label} state in collision: {a}-{b} {depth:.4f} m"
+    return None
+
+
+def _ompl_setup(
+    scene: CollisionScene,
+    config: MoveItConfig,
+    joints: list[str],
+    index: np.ndarray,
+    start: Sequence[float],
+    goal: Sequence[float],
+    planner: str,
+) -> tuple[Any, Any]:
+    """OMPL's SimpleSetup over the joints' bounds with the scene as validity checker; and its space information."""
+    from ompl import base as ob
+    from ompl import geometric as og
+
+    n = len(joints)
     space = ob.RealVectorStateSpace(n)
     bounds = ob.RealVectorBounds(n)
     for i, joint in enumerate(joints):
@@ -134,26 +179,18 @@ def plan_motion(
     last[0:n] = list(map(float, goal))
     setup.setStartAndGoalStates(first, last)
     setup.setPlanner(getattr(og, planner)(information))
-    began = time.perf_counter()
-    solved = setup.solve(timeout)
-    exact = bool(solved) and str(solved) == "Exact solution"
-    if exact and setup.getSolutionPath().getStateCount() > 2:
-        # Vertex reduction and shortcutting (no B-spline smoothing: it would add vertices, and each
-        # vertex is a stop for the rest-to-rest time parameterization).
-        simplifier = og.PathSimplifier(information)
-        path = setup.getSolutionPath()
-        simplifier.reduceVertices(path)
-        simplifier.partialShortcutPath(path)
-        simplifier.reduceVertices(path)
-    elapsed = time.perf_counter() - began
-    if not exact:
-        return Plan(False, group, planner, elapsed, joints, message=f"no path found in {timeout} s ({solved})")
-    path = setup.getSolutionPath()
-    waypoints = [list(path.getState(i)[0:n]) for i in range(path.getStateCount())]
-    waypoints[0], waypoints[-1] = list(map(float, start)), list(map(float, goal))
-    result = Plan(True, group, planner, elapsed, joints, waypoints)
-    time_parameterize(result, config, velocity_scaling, acceleration_scaling)
-    return result
+    return setup, information
+
+
+def _simplify(information: Any, path: Any) -> None:
+    """Vertex reduction and shortcutting (no B-spline smoothing: it would add vertices, and each
+    vertex is a stop for the rest-to-rest time parameterization)."""
+    from ompl import geometric as og
+
+    simplifier = og.PathSimplifier(information)
+    simplifier.reduceVertices(path)
+    simplifier.partialShortcutPath(path)
+    simplifier.reduceVertices(path)
 
 
 def time_parameterize(

@@ -11,6 +11,7 @@ joint_state_controller cannot be switched (it is always on here).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,38 +79,15 @@ class ControllerManager:
             self._rospy.logwarn("Controller Manager: no strictness given; defaulting to BEST_EFFORT")
             strictness = BEST_EFFORT
         strict = strictness == STRICT
-
-        def refuse(why: str) -> str:
-            self._rospy.logerr(f"Could not switch controllers: {why}")
-            return why
-
-        stopping, starting = [], []
-        for name in stop:
-            loaded = self.controllers.get(name)
-            if loaded is None or not loaded.running or loaded.controller is None:
-                why = f"cannot stop {name!r}: it is {'not loaded' if loaded is None else 'not running'}"
-                if strict:
-                    return refuse(why)
-                self._rospy.logwarn(why)
-                continue
-            stopping.append(loaded)
-        for name in start:
-            loaded = self.controllers.get(name)
-            if loaded is None or (loaded.running and loaded not in stopping) or loaded.controller is None:
-                why = f"cannot start {name!r}: it is {'not loaded' if loaded is None else 'already running'}"
-                if strict:
-                    return refuse(why)
-                self._rospy.logwarn(why)
-                continue
-            starting.append(loaded)
-        # RobotHW::checkForConflict: no resource may be claimed by two running controllers.
-        after = [c for c in self.controllers.values() if (c.running and c not in stopping) or c in starting]
-        claimed: dict[str, str] = {}
-        for controller in after:
-            for resource in controller.resources:
-                if resource in claimed:
-                    return refuse(f"{controller.name} and {claimed[resource]} would both claim {resource}")
-                claimed[resource] = controller.name
+        stopping = self._select(stop, lambda c: c.running, "stop", "not running", strict)
+        if isinstance(stopping, str):
+            return self._refuse(stopping)
+        starting = self._select(start, lambda c: not c.running or c in stopping, "start", "already running", strict)
+        if isinstance(starting, str):
+            return self._refuse(starting)
+        conflict = self._conflict(stopping, starting)
+        if conflict is not None:
+            return self._refuse(conflict)
         for loaded in stopping:
             loaded.controller.stopping()
             loaded.running = False
@@ -117,3 +95,35 @@ class ControllerManager:
             loaded.controller.starting()
             loaded.running = True
         return True
+
+    def _refuse(self, why: str) -> str:
+        self._rospy.logerr(f"Could not switch controllers: {why}")
+        return why
+
+    def _select(
+        self, names: list[str], usable: Callable[[Loaded], bool], verb: str, state: str, strict: bool
+    ) -> list[Loaded] | str:
+        """The switchable controllers among `names`: unknown, always-on or unusable ones are dropped with a
+        warning, or under STRICT the first of them is the refusal returned."""
+        chosen: list[Loaded] = []
+        for name in names:
+            loaded = self.controllers.get(name)
+            if loaded is None or loaded.controller is None or not usable(loaded):
+                why = f"cannot {verb} {name!r}: it is {'not loaded' if loaded is None else state}"
+                if strict:
+                    return why
+                self._rospy.logwarn(why)
+                continue
+            chosen.append(loaded)
+        return chosen
+
+    def _conflict(self, stopping: list[Loaded], starting: list[Loaded]) -> str | None:
+        """RobotHW::checkForConflict: no resource may be claimed by two running controllers."""
+        after = [c for c in self.controllers.values() if (c.running and c not in stopping) or c in starting]
+        claimed: dict[str, str] = {}
+        for controller in after:
+            for resource in controller.resources:
+                if resource in claimed:
+                    return f"{controller.name} and {claimed[resource]} would both claim {resource}"
+                claimed[resource] = controller.name
+        return None

@@ -27,7 +27,7 @@ import warnings
 from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from lxml import etree
 
@@ -54,6 +54,11 @@ from svhdesc.sim import Simulation
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
 VELOCITY_INTERFACE = "hardware_interface::VelocityJointInterface"
+
+if TYPE_CHECKING:  # annotations only; the node imports them where it builds its controllers
+    from svhdesc.ros.controller import TrajectoryController
+    from svhdesc.ros.manager import Loaded
+    from svhdesc.ros.velocity import VelocityGroupController
 
 
 def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
@@ -139,6 +144,19 @@ class Outbox:
         self._thread.join(5.0)
 
 
+def _trajectory_groups(info: Any) -> list[tuple[str, str, list[str], bool, str, bool]]:
+    """(name, type, joints, partial goals allowed, kind, running) of each trajectory controller to load."""
+    groups = []
+    if info.hand_channels:
+        name = hand_controller(info.hand_prefix or "hand")
+        groups.append((name, CONTROLLER_TYPES["hand"], info.hand_channels, True, "hand", True))
+    if info.arm_joints:
+        groups.append((ARM_CONTROLLER, CONTROLLER_TYPES[ARM_CONTROLLER], info.arm_joints, False, "arm", True))
+        stopped = ARM_STOPPED_CONTROLLER
+        groups.append((stopped, CONTROLLER_TYPES[stopped], info.arm_joints, False, "arm", False))
+    return groups
+
+
 class SimNode:
     def __init__(
         self,
@@ -155,9 +173,7 @@ class SimNode:
         from std_msgs.msg import Float64
 
         import svhdesc
-        from svhdesc.ros.controller import TrajectoryController
-        from svhdesc.ros.manager import ControllerManager, Loaded
-        from svhdesc.ros.velocity import VelocityGroupController
+        from svhdesc.ros.manager import ControllerManager
 
         self._rospy = rospy
         self.sim = sim
@@ -177,17 +193,22 @@ class SimNode:
             (body, frame, _publisher(rospy, topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
         ]
         self.controllers: list[TrajectoryController] = []
-        info = sim.info
-        groups = []
-        if info.hand_channels:
-            name = hand_controller(info.hand_prefix or "hand")
-            groups.append((name, CONTROLLER_TYPES["hand"], info.hand_channels, True, "hand", True))
-        if info.arm_joints:
-            groups.append((ARM_CONTROLLER, CONTROLLER_TYPES[ARM_CONTROLLER], info.arm_joints, False, "arm", True))
-            stopped = ARM_STOPPED_CONTROLLER
-            groups.append((stopped, CONTROLLER_TYPES[stopped], info.arm_joints, False, "arm", False))
+        self._velocity_controllers: list[VelocityGroupController] = []
+        self.manager = ControllerManager(self._load_controllers(rospy, msgs), self.queue)
+        self._pose_topics = self._connect(rospy, connector, Float64)
+        for controller in self.controllers:
+            controller.start()
+
+    def _load_controllers(self, rospy: Any, msgs: Any) -> list[Loaded]:
+        """The controllers ur5_bringup.launch and the SVH driver load: joint_state_controller, one trajectory
+        controller per group (the arm's second one stopped), the arm's velocity group (stopped)."""
+        from svhdesc.ros.controller import TrajectoryController
+        from svhdesc.ros.manager import Loaded
+        from svhdesc.ros.velocity import VelocityGroupController
+
+        sim, info = self.sim, self.sim.info
         loaded = [Loaded(JOINT_STATE_CONTROLLER, CONTROLLER_TYPES[JOINT_STATE_CONTROLLER], STATE_INTERFACE, [], True)]
-        for name, kind_name, joints, partial, kind, running in groups:
+        for name, kind_name, joints, partial, kind, running in _trajectory_groups(info):
             controller = TrajectoryController(
                 name,
                 joints,
@@ -204,7 +225,6 @@ class SimNode:
             )
             self.controllers.append(controller)
             loaded.append(Loaded(name, kind_name, POSITION_INTERFACE, list(joints), running, controller))
-        self._velocity_controllers = []
         if info.arm_joints:
             velocity = VelocityGroupController(ARM_VELOCITY_CONTROLLER, info.arm_joints, sim, self.queue)
             self._velocity_controllers.append(velocity)
@@ -212,16 +232,18 @@ class SimNode:
             loaded.append(
                 Loaded(ARM_VELOCITY_CONTROLLER, kind_name, VELOCITY_INTERFACE, list(info.arm_joints), False, velocity)
             )
-        self.manager = ControllerManager(loaded, self.queue)
-        self._pose_topics = []
+        return loaded
+
+    def _connect(self, rospy: Any, connector: Sequence[ConnectorJoint], float64: Any) -> list[tuple[str, Any]]:
+        """The connector's gains, subscriptions and pose publishers; (joint, pose publisher) in its order."""
+        topics = []
         for joint in connector:
-            sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
-            sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
-            self._pose_topics.append((joint.name, _publisher(rospy, joint.pose_topic, Float64)))
-            rospy.Subscriber(joint.control_topic, Float64, self._queued(self._on_target, joint.name), queue_size=10)
-            rospy.Subscriber(joint.initpose_topic, Float64, self._queued(self._on_initpose, joint.name), queue_size=10)
-        for controller in self.controllers:
-            controller.start()
+            self.sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
+            self.sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
+            topics.append((joint.name, _publisher(rospy, joint.pose_topic, float64)))
+            rospy.Subscriber(joint.control_topic, float64, self._queued(self._on_target, joint.name), queue_size=10)
+            rospy.Subscriber(joint.initpose_topic, float64, self._queued(self._on_initpose, joint.name), queue_size=10)
+        return topics
 
     def _queued(self, handler: Any, joint: str) -> Any:
         return lambda msg: self.queue.append((handler, (joint, msg)))

@@ -10,6 +10,7 @@ not judged.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -96,6 +97,20 @@ def _frame(data: Any, body: int) -> np.ndarray:
     return transform
 
 
+@dataclass
+class _Sweep:
+    """The hand's poses and how to place the model in one."""
+
+    model: Any
+    data: Any
+    base: np.ndarray  # qpos every pose starts from
+    equalities: list[Any]
+    poses: list[dict[str, float]]
+
+    def place(self, index: int) -> None:
+        place(self.model, self.data, self.base, self.poses[index], self.equalities)
+
+
 def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     import mujoco
 
@@ -115,47 +130,16 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     suffix = {b: model.body(b).name.removeprefix(f"{prefix}_") for b in range(model.nbody)}
     judged = {b for b in range(model.nbody) if model.body(b).name.startswith(f"{prefix}_") and suffix[b] in vendor}
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
-    equalities = joint_equalities(model)
     poses = sample_poses(channels, np.random.default_rng(options.seed))
-    data, base = mujoco.MjData(model), base_qpos(model)
-
-    candidates: dict[tuple[int, int], list[tuple[float, int]]] = {}
-    unjudged: set[tuple[str, str]] = set()
-    for index, pose in enumerate(poses):
-        place(model, data, base, pose, equalities)
-        for (b1, b2), depth in touching_pairs(model, data).items():
-            if b1 in judged and b2 in judged:
-                candidates.setdefault((b1, b2), []).append((depth, index))
-            else:
-                unjudged.add((model.body(b1).name, model.body(b2).name))
-
+    sweep = _Sweep(model, mujoco.MjData(model), base_qpos(model), joint_equalities(model), poses)
+    candidates, unjudged = _touching(sweep, judged)
     findings = []
-    for (b1, b2), hits in sorted(candidates.items()):
-        hits.sort(reverse=True)
-        # Deepest poses first (all deeper than DEPTH), spread over the rest: judged on its worst case and a fair sample.
-        half = CANDIDATES_PER_PAIR // 2
-        picked = hits[:half] + hits[half :: max(1, (len(hits) - half) // half)]
-        a, b = (b1, b2) if len(vendor[suffix[b1]].points) <= len(vendor[suffix[b2]].points) else (b2, b1)
-        for depth, index in picked:
-            place(model, data, base, poses[index], equalities)
-            a_to_b = np.linalg.inv(_frame(data, b)) @ _frame(data, a)
-            gap = vendor[suffix[a]].distance(vendor[suffix[b]], a_to_b)
-            if gap > GAP:
-                findings.append(
-                    {
-                        "bodies": [model.body(b1).name, model.body(b2).name],
-                        "depth_mm": round(depth * 1e3, 3),
-                        "vendor_gap_mm": round(gap * 1e3, 3),
-                        "touching_poses": len(hits),
-                        "pose": {k.removeprefix(f"{prefix}_"): round(v, 4) for k, v in poses[index].items()},
-                    }
-                )
-                break
-    detail = "; ".join(
-        f"{f['bodies'][0]}/{f['bodies'][1]} touch ({f['depth_mm']:.2f} mm deep) with the vendor parts "
-        f"{'>= ' if f['vendor_gap_mm'] >= REFINE_BELOW * 1e3 else ''}{f['vendor_gap_mm']:.2f} mm apart"
-        for f in findings
-    )
+    for bodies, hits in sorted(candidates.items()):
+        # The vendor parts the two touching bodies stand for.
+        parts = {b: vendor[suffix[b]] for b in bodies}
+        finding = _judge(sweep, parts, hits, prefix)
+        if finding is not None:
+            findings.append(finding)
     summary = (
         f"{len(poses)} poses ({len(channels)} channels x {SWEEP_STEPS} + {RANDOM_POSES} random), "
         f"{len(candidates)} touching pairs judged against {folder.name}"
@@ -166,7 +150,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
             verdict(not findings),
             f"{len(findings)} pairs",
             bound,
-            detail or summary,
+            _detail(findings) or summary,
             {
                 "findings": findings,
                 "poses": len(poses),
@@ -178,3 +162,52 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
             },
         )
     ]
+
+
+def _touching(
+    sweep: _Sweep, judged: set[int]
+) -> tuple[dict[tuple[int, int], list[tuple[float, int]]], set[tuple[str, str]]]:
+    """(depth, pose) of each touch between two judged bodies, per pair; and the other touching pairs' names."""
+    model = sweep.model
+    candidates: dict[tuple[int, int], list[tuple[float, int]]] = {}
+    unjudged: set[tuple[str, str]] = set()
+    for index in range(len(sweep.poses)):
+        sweep.place(index)
+        for (b1, b2), depth in touching_pairs(model, sweep.data).items():
+            if b1 in judged and b2 in judged:
+                candidates.setdefault((b1, b2), []).append((depth, index))
+            else:
+                unjudged.add((model.body(b1).name, model.body(b2).name))
+    return candidates, unjudged
+
+
+def _judge(sweep: _Sweep, parts: dict[int, Any], hits: list[tuple[float, int]], prefix: str) -> dict | None:
+    """The first of the pair's touching poses where the vendor parts stay more than GAP apart, or None."""
+    model, data = sweep.model, sweep.data
+    (b1, first), (b2, second) = parts.items()
+    hits.sort(reverse=True)
+    # Deepest poses first (all deeper than DEPTH), spread over the rest: judged on its worst case and a fair sample.
+    half = CANDIDATES_PER_PAIR // 2
+    picked = hits[:half] + hits[half :: max(1, (len(hits) - half) // half)]
+    a, b = (b1, b2) if len(first.points) <= len(second.points) else (b2, b1)
+    for depth, index in picked:
+        sweep.place(index)
+        a_to_b = np.linalg.inv(_frame(data, b)) @ _frame(data, a)
+        gap = parts[a].distance(parts[b], a_to_b)
+        if gap > GAP:
+            return {
+                "bodies": [model.body(b1).name, model.body(b2).name],
+                "depth_mm": round(depth * 1e3, 3),
+                "vendor_gap_mm": round(gap * 1e3, 3),
+                "touching_poses": len(hits),
+                "pose": {k.removeprefix(f"{prefix}_"): round(v, 4) for k, v in sweep.poses[index].items()},
+            }
+    return None
+
+
+def _detail(findings: list[dict]) -> str:
+    return "; ".join(
+        f"{f['bodies'][0]}/{f['bodies'][1]} touch ({f['depth_mm']:.2f} mm deep) with the vendor parts "
+        f"{'>= ' if f['vendor_gap_mm'] >= REFINE_BELOW * 1e3 else ''}{f['vendor_gap_mm']:.2f} mm apart"
+        for f in findings
+    )

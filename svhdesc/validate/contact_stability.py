@@ -58,44 +58,17 @@ def run_experiment(pair: ModelPair) -> Experiment:
     scene = spec.compile()
     box = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_GEOM, shared.SURFACE)
     sdata = mujoco.MjData(scene)
-    tip_geoms = {int(g) for g in range(scene.ngeom) if scene.geom_bodyid[g] == tip}
 
     mujoco.mj_resetDataKeyframe(scene, sdata, test)
     mujoco.mj_forward(scene, sdata)
     others = sorted(shared.bodies_touching(scene, sdata, box) - {scene.body(tip).name})
 
     mujoco.mj_resetDataKeyframe(scene, sdata, home)
-    start, goal = scene.key_ctrl[home].copy(), scene.key_ctrl[test].copy()
     dt = scene.opt.timestep
-    total, record_from, _ = shared.schedule(dt)
+    _, record_from, _ = shared.schedule(dt)
     joints = scalar_joints(scene)
-    addresses = scene.jnt_qposadr[joints]
-    touch_adr = next(
-        int(scene.sensor_adr[s])
-        for s in range(scene.nsensor)
-        if int(scene.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_TOUCH)
-    )
-    qpos = np.zeros((total, len(joints)))
-    force, touch = np.zeros(total), np.zeros(total)
-    wrench = np.zeros(6)
-    nan_at = None
-    for step in range(total):
-        sdata.ctrl[:] = shared.ramp(start, goal, step, dt)
-        mujoco.mj_step(scene, sdata)
-        if not np.isfinite(sdata.qpos).all():
-            nan_at = step * dt
-            qpos, force, touch = qpos[:step], force[:step], touch[:step]
-            break
-        qpos[step] = sdata.qpos[addresses]
-        normal_force = 0.0
-        for index, contact in enumerate(sdata.contact[: sdata.ncon]):
-            if (contact.geom1 == box and contact.geom2 in tip_geoms) or (
-                contact.geom2 == box and contact.geom1 in tip_geoms
-            ):
-                mujoco.mj_contactForce(scene, sdata, index, wrench)
-                normal_force += wrench[0]
-        force[step] = normal_force
-        touch[step] = sdata.sensordata[touch_adr]
+    press = _Press(scene, sdata, box, {int(g) for g in range(scene.ngeom) if scene.geom_bodyid[g] == tip})
+    qpos, force, touch, nan_at = press.record(scene.key_ctrl[home].copy(), scene.key_ctrl[test].copy(), joints)
     setup = {
         "fingertip": scene.body(tip).name,
         "direction": surface.normal.tolist(),
@@ -122,6 +95,59 @@ def run_experiment(pair: ModelPair) -> Experiment:
     )
 
 
+@dataclass
+class _Press:
+    """The model with the surface, pressing the fingertip (its geoms) into the surface's box."""
+
+    scene: Any
+    data: Any
+    box: int
+    tip_geoms: set[int]
+
+    def record(
+        self, start: np.ndarray, goal: np.ndarray, joints: list[int]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
+        """Ramp the controls from start to goal and hold: the joints, the tip's normal force and the touch sensor
+        each step (cut short where the state turns NaN, and when)."""
+        import mujoco
+
+        scene, sdata = self.scene, self.data
+        dt = scene.opt.timestep
+        total, _, _ = shared.schedule(dt)
+        addresses = scene.jnt_qposadr[joints]
+        touch_adr = next(
+            int(scene.sensor_adr[s])
+            for s in range(scene.nsensor)
+            if int(scene.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_TOUCH)
+        )
+        qpos = np.zeros((total, len(joints)))
+        force, touch = np.zeros(total), np.zeros(total)
+        for step in range(total):
+            sdata.ctrl[:] = shared.ramp(start, goal, step, dt)
+            mujoco.mj_step(scene, sdata)
+            if not np.isfinite(sdata.qpos).all():
+                return qpos[:step], force[:step], touch[:step], step * dt
+            qpos[step] = sdata.qpos[addresses]
+            force[step] = self.normal_force()
+            touch[step] = sdata.sensordata[touch_adr]
+        return qpos, force, touch, None
+
+    def normal_force(self) -> float:
+        """The normal force of the box's contacts with the fingertip."""
+        import mujoco
+
+        box, tip_geoms, sdata = self.box, self.tip_geoms, self.data
+        wrench = np.zeros(6)
+        normal_force = 0.0
+        for index, contact in enumerate(sdata.contact[: sdata.ncon]):
+            if (contact.geom1 == box and contact.geom2 in tip_geoms) or (
+                contact.geom2 == box and contact.geom1 in tip_geoms
+            ):
+                mujoco.mj_contactForce(self.scene, sdata, index, wrench)
+                normal_force += wrench[0]
+        return normal_force
+
+
 def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
     bound = f"MAD <= {MAD_BOUND:g} rad, F > 0, std/F <= {FORCE_CV_BOUND:.0%}"
     if pair.model is None:
@@ -139,14 +165,47 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
     recorded = run.qpos[run.record_from :]
     deviations = mad(recorded)
     means = recorded.mean(axis=0)
-    force = run.force[run.record_from :]
+    force = _Force(run.force[run.record_from :])
     touch = run.touch[run.record_from :]
-    force_mean, force_std = float(force.mean()), float(force.std())
-    variation = force_std / force_mean if force_mean > 0 else float("inf")
     joints = {
         name: {"mad_rad": float(m), "mean_rad": float(x), "pass": bool(m <= MAD_BOUND)}
         for name, m, x in zip(run.joints, deviations, means, strict=True)
     }
+    problems = _problems(run, joints, deviations, force)
+    text = _table(run, joints, force, touch)
+    if options.plots is not None:
+        from svhdesc.validate.plots import plot_contact
+
+        run.setup["plots"] = [str(p) for p in plot_contact(run, pair.name, options.plots)]
+    figures = {
+        "joints": joints,
+        "force_mean_n": force.mean,
+        "force_std_n": force.std,
+        "force_variation": force.variation,
+        "touch_mean_n": float(touch.mean()),
+        "touch_std_n": float(touch.std()),
+        "samples": int(len(force.samples)),
+        "window": WINDOW,
+        "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
+        "setup": run.setup,
+        "warnings": run.warnings,
+    }
+    measured = f"max MAD {fmt(float(deviations.max()))} rad, F {force.mean:.3g} N +- {force.variation:.2%}"
+    detail = "; ".join(problems) or f"{len(joints)} joints still, {run.setup['direction_from']}"
+    return [Check("contact_stability", verdict(not problems), measured, bound, detail, figures, table=text)]
+
+
+class _Force:
+    """The recorded normal force: mean, standard deviation, and their ratio (inf without a positive mean)."""
+
+    def __init__(self, samples: np.ndarray) -> None:
+        self.samples = samples
+        self.mean, self.std = float(samples.mean()), float(samples.std())
+        self.variation = self.std / self.mean if self.mean > 0 else float("inf")
+
+
+def _problems(run: Experiment, joints: dict[str, dict], deviations: np.ndarray, force: _Force) -> list[str]:
+    """Joints above the MAD bound, an absent or unsteady force, MuJoCo warnings, other bodies on the surface."""
     moving = [n for n, v in joints.items() if not v["pass"]]
     problems = []
     if moving:
@@ -154,44 +213,29 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
             f"{len(moving)} of {len(joints)} joints above the MAD bound (worst "
             f"{run.joints[int(np.argmax(deviations))]} {deviations.max():.3g} rad)"
         )
-    if force_mean <= 0:
+    if force.mean <= 0:
         problems.append("no normal force on the fingertip: it does not reach the surface")
-    elif variation > FORCE_CV_BOUND:
-        problems.append(f"normal force varies {variation:.2%} (std {force_std:.3g} N)")
+    elif force.variation > FORCE_CV_BOUND:
+        problems.append(f"normal force varies {force.variation:.2%} (std {force.std:.3g} N)")
     if run.warnings:
         problems.append("MuJoCo warnings " + ", ".join(f"{k} x{v}" for k, v in run.warnings.items()))
     if run.setup["other_bodies_touching_at_test"]:
         problems.append(
             f"the surface also touches {', '.join(run.setup['other_bodies_touching_at_test'])} in the test pose"
         )
+    return problems
+
+
+def _table(run: Experiment, joints: dict[str, dict], force: _Force, touch: np.ndarray) -> str:
+    """Each joint's MAD and mean, then the force, the touch sensor and where the surface faces."""
     rows = [
         [name, f"{v['mad_rad']:.3e}", f"{v['mean_rad']:+.6f}", "pass" if v["pass"] else "FAIL"]
         for name, v in joints.items()
     ]
     text = table(rows, ["joint", "MAD, centred window [rad]", "mean [rad]", "status"])
-    text += (
-        f"\nnormal force on {run.setup['fingertip']}: mean {force_mean:.4g} N, std {force_std:.3g} N "
-        f"({variation:.3%}); touch sensor mean {touch.mean():.4g} N, std {touch.std():.3g} N"
+    return text + (
+        f"\nnormal force on {run.setup['fingertip']}: mean {force.mean:.4g} N, std {force.std:.3g} N "
+        f"({force.variation:.3%}); touch sensor mean {touch.mean():.4g} N, std {touch.std():.3g} N"
         f"\nsurface along {np.array2string(np.array(run.setup['direction']), precision=3)}: "
         f"{run.setup['direction_from']}"
     )
-    if options.plots is not None:
-        from svhdesc.validate.plots import plot_contact
-
-        run.setup["plots"] = [str(p) for p in plot_contact(run, pair.name, options.plots)]
-    figures = {
-        "joints": joints,
-        "force_mean_n": force_mean,
-        "force_std_n": force_std,
-        "force_variation": variation,
-        "touch_mean_n": float(touch.mean()),
-        "touch_std_n": float(touch.std()),
-        "samples": int(len(force)),
-        "window": WINDOW,
-        "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
-        "setup": run.setup,
-        "warnings": run.warnings,
-    }
-    measured = f"max MAD {fmt(float(deviations.max()))} rad, F {force_mean:.3g} N +- {variation:.2%}"
-    detail = "; ".join(problems) or f"{len(joints)} joints still, {run.setup['direction_from']}"
-    return [Check("contact_stability", verdict(not problems), measured, bound, detail, figures, table=text)]

@@ -49,15 +49,9 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
         if mimic[0] != eq.channel:
             problems.append(f"{eq.joint}: URDF mimics {mimic[0]}, MJCF couples it to {eq.channel}")
             continue
-        if any(c != 0.0 for c in eq.coeffs[2:]):
-            # URDF <mimic> is linear: the build writes the least-squares line over the channel range.
-            low, high = channel_range(pair.model, eq.channel)
-            expected = linearise(eq.coeffs, low, high)
-            notes.append(
-                f"{eq.joint}: polynomial of order > 1; the URDF carries its least-squares line over [{low:g}, {high:g}]"
-            )
-        else:
-            expected = (eq.coeffs[0], eq.coeffs[1])
+        expected, note = _expected_line(pair.model, eq)
+        if note:
+            notes.append(note)
         error = max(abs(mimic[2] - expected[0]), abs(mimic[1] - expected[1]))
         figures[eq.joint] = {
             "mjcf_polycoef": list(eq.coeffs),
@@ -74,13 +68,11 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
                 f"gives offset {expected[0]:.9g} multiplier {expected[1]:.9g}"
             )
         plugin = pair.urdf.mimic_plugins.get(eq.joint)
-        if plugin is not None:
-            plugin_error = max(abs(plugin[1] - mimic[1]), abs(plugin[2] - mimic[2]))
-            if plugin[0] != mimic[0] or plugin_error > SPEC_TOL:
-                problems.append(
-                    f"{eq.joint}: Gazebo mimic plugin ({plugin[0]} x{plugin[1]:.9g} "
-                    f"+{plugin[2]:.9g}) differs from the URDF <mimic>"
-                )
+        if plugin is not None and not _same_mimic(plugin, mimic):
+            problems.append(
+                f"{eq.joint}: Gazebo mimic plugin ({plugin[0]} x{plugin[1]:.9g} "
+                f"+{plugin[2]:.9g}) differs from the URDF <mimic>"
+            )
     coupled = {eq.joint for eq in equalities}
     for joint in sorted(set(mimics) - coupled):
         problems.append(f"{joint}: URDF <mimic> of {mimics[joint][0]} but no MJCF joint equality")
@@ -95,6 +87,21 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
             {"couplings": figures, "problems": problems},
         )
     ]
+
+
+def _expected_line(model: Any, eq: Any) -> tuple[tuple[float, float], str | None]:
+    """(offset, multiplier) the URDF <mimic> must carry for the equality; and a note where it is only the
+    polynomial's least-squares line (URDF <mimic> is linear; the build writes that line over the channel range)."""
+    if any(c != 0.0 for c in eq.coeffs[2:]):
+        low, high = channel_range(model, eq.channel)
+        note = f"{eq.joint}: polynomial of order > 1; the URDF carries its least-squares line over [{low:g}, {high:g}]"
+        return linearise(eq.coeffs, low, high), note
+    return (eq.coeffs[0], eq.coeffs[1]), None
+
+
+def _same_mimic(plugin: tuple, mimic: tuple) -> bool:
+    """A Gazebo mimic plugin and a URDF <mimic>, both (leader, multiplier, offset), state the same coupling."""
+    return plugin[0] == mimic[0] and not max(abs(plugin[1] - mimic[1]), abs(plugin[2] - mimic[2])) > SPEC_TOL
 
 
 def check_limits(pair: ModelPair, options: Options) -> list[Check]:

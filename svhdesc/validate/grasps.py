@@ -177,101 +177,182 @@ def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
     if mujoco.mj_name2id(base_model, mujoco.mjtObj.mjOBJ_KEY, name) < 0:
         result.problems.append(f"{name}: no keyframe '{name}' in the MJCF")
         return result
-    data = mujoco.MjData(base_model)
-    _arm_home(base_model, data)
-    set_channels(base_model, data, hand, _open(base_model, hand))
-    mujoco.mj_forward(base_model, data)
-    origin, rotation, mirror = _hand_frame(base_model, data, hand)
-    flip = np.array([mirror, 1.0, 1.0])
-    position = origin + rotation @ (flip * np.array(grasp["pos"]))
-    axis = rotation @ (flip * np.array(grasp.get("axis", [0.0, 0.0, 1.0])))
+    placement, flip = _placement(base_model, hand, grasp)
+    result.spec = _scene(mjcf, grasp, placement, f"{hand.prefix}_base_link")
+    sim = _GraspSim.welded(result.spec, hand)
+    sim.close(_key_targets(sim.model, hand, name))
+    sim.release()
+    result.contacts, result.grip = sim.touching()
+    result.state = (sim.data.qpos.copy(), sim.data.ctrl.copy())
+    _turn_gravity(sim, flip, result)
+    result.problems.extend(_hold_problems(result, grasp))
+    if grasp.get("tips"):
+        result.tip_gap, result.tip_others = _tips_meet(mjcf, hand, name, grasp["tips"])
+        result.problems.extend(_pinch_problems(name, grasp["tips"], result.tip_gap, result.tip_others))
+    return result
 
-    spec = _scene(mjcf, grasp, (position, axis / np.linalg.norm(axis)), f"{hand.prefix}_base_link")
-    result.spec = spec
-    model = spec.compile()
-    model.opt.gravity[:] = 0.0
+
+def _placement(model: Any, hand: Hand, grasp: dict[str, Any]) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """The object's world position and unit axis (the grasp's are in the open hand's frame, x mirrored for a left
+    hand); and that mirror as a factor on hand-frame vectors."""
+    import mujoco
+
     data = mujoco.MjData(model)
     _arm_home(model, data)
     set_channels(model, data, hand, _open(model, hand))
-    targets = _key_targets(model, hand, name)
-    obj = int(model.body("grasp_object").id)
-    obj_geom = int(model.geom("grasp_object").id)
     mujoco.mj_forward(model, data)
-    base = hand.body(model, "base_link")
-    owner = finger_bodies(model, hand)
-    # The weld keeps the object where it is now in the hand's frame (MuJoCo would take qpos0, where an
-    # arm stands elsewhere): anchored at the object's centre, the base's orientation relative to it.
-    weld = int(model.equality("grasp_hold").id)
-    model.eq_data[weld, 0:3] = data.xmat[base].reshape(3, 3).T @ (data.xpos[obj] - data.xpos[base])
-    model.eq_data[weld, 3:6] = 0.0
-    inverse = np.zeros(4)
-    mujoco.mju_negQuat(inverse, data.xquat[obj])
-    mujoco.mju_mulQuat(model.eq_data[weld, 6:10], inverse, data.xquat[base])
+    origin, rotation, mirror = _hand_frame(model, data, hand)
+    flip = np.array([mirror, 1.0, 1.0])
+    position = origin + rotation @ (flip * np.array(grasp["pos"]))
+    axis = rotation @ (flip * np.array(grasp.get("axis", [0.0, 0.0, 1.0])))
+    return (position, axis / np.linalg.norm(axis)), flip
 
-    def in_hand() -> np.ndarray:
-        return (data.xpos[obj] - data.xpos[base]) @ data.xmat[base].reshape(3, 3)
 
-    def touching() -> tuple[dict[str, int], float]:
+@dataclass
+class _GraspSim:
+    """The hand and the object in one MuJoCo scene, gravity off, the object welded to the hand's base."""
+
+    model: Any
+    data: Any
+    hand: Hand
+    obj: int  # the object's body
+    obj_geom: int
+    base: int  # the hand's base link
+    weld: int  # the equality holding the object
+    owner: dict[int, str]  # body -> finger or palm
+
+    @classmethod
+    def welded(cls, spec: Any, hand: Hand) -> _GraspSim:
+        import mujoco
+
+        model = spec.compile()
+        model.opt.gravity[:] = 0.0
+        data = mujoco.MjData(model)
+        _arm_home(model, data)
+        set_channels(model, data, hand, _open(model, hand))
+        sim = cls(
+            model,
+            data,
+            hand,
+            int(model.body("grasp_object").id),
+            int(model.geom("grasp_object").id),
+            hand.body(model, "base_link"),
+            int(model.equality("grasp_hold").id),
+            finger_bodies(model, hand),
+        )
+        mujoco.mj_forward(model, data)
+        sim._anchor_weld()
+        return sim
+
+    def _anchor_weld(self) -> None:
+        """The weld keeps the object where it is now in the hand's frame (MuJoCo would take qpos0, where an
+        arm stands elsewhere): anchored at the object's centre, the base's orientation relative to it."""
+        import mujoco
+
+        model, data, weld, base, obj = self.model, self.data, self.weld, self.base, self.obj
+        model.eq_data[weld, 0:3] = data.xmat[base].reshape(3, 3).T @ (data.xpos[obj] - data.xpos[base])
+        model.eq_data[weld, 3:6] = 0.0
+        inverse = np.zeros(4)
+        mujoco.mju_negQuat(inverse, data.xquat[obj])
+        mujoco.mju_mulQuat(model.eq_data[weld, 6:10], inverse, data.xquat[base])
+
+    def steps(self, seconds: float) -> range:
+        return range(int(round(seconds / self.model.opt.timestep)))
+
+    def run(self, seconds: float) -> None:
+        import mujoco
+
+        for _ in self.steps(seconds):
+            mujoco.mj_step(self.model, self.data)
+
+    def close(self, targets: dict[str, float]) -> None:
+        """As a hand grasps: the thumb turns and the fingers spread first, then they close."""
+        for channel in PRESHAPED:
+            self.data.ctrl[self.hand.actuators[channel]] = targets[channel]
+        self.run(PRESHAPE)
+        for channel, q in targets.items():
+            self.data.ctrl[self.hand.actuators[channel]] = q
+        self.run(CLOSE)
+
+    def release(self) -> None:
+        """Let go gently: the weld softens over RELEASE s, so the fingers' squeeze does not fling the object;
+        then the object settles between the fingers."""
+        import mujoco
+
+        steps = int(round(RELEASE / self.model.opt.timestep))
+        for step in range(steps):
+            self.model.eq_solref[self.weld, 0] = 0.002 * (1000.0 ** (step / steps))
+            mujoco.mj_step(self.model, self.data)
+        self.data.eq_active[self.weld] = 0
+        self.run(SETTLE)
+
+    def in_hand(self) -> np.ndarray:
+        data = self.data
+        return (data.xpos[self.obj] - data.xpos[self.base]) @ data.xmat[self.base].reshape(3, 3)
+
+    def touching(self) -> tuple[dict[str, int], float]:
+        """Contacts on the object per finger (or palm, or world), and their total normal force."""
+        import mujoco
+
+        model, data = self.model, self.data
         counts: dict[str, int] = {}
         force, wrench = 0.0, np.zeros(6)
         for i in range(data.ncon):
             contact = data.contact[i]
-            if obj_geom not in (contact.geom1, contact.geom2):
+            if self.obj_geom not in (contact.geom1, contact.geom2):
                 continue
-            other = int(contact.geom2 if contact.geom1 == obj_geom else contact.geom1)
-            part = owner.get(int(model.geom_bodyid[other]), "world")
+            other = int(contact.geom2 if contact.geom1 == self.obj_geom else contact.geom1)
+            part = self.owner.get(int(model.geom_bodyid[other]), "world")
             counts[part] = counts.get(part, 0) + 1
             mujoco.mj_contactForce(model, data, i, wrench)
             force += wrench[0]
         return counts, force
 
-    # As a hand grasps: the thumb turns and the fingers spread first, then they close.
-    for channel in PRESHAPED:
-        data.ctrl[hand.actuators[channel]] = targets[channel]
-    for _ in range(int(round(PRESHAPE / model.opt.timestep))):
-        mujoco.mj_step(model, data)
-    for channel, q in targets.items():
-        data.ctrl[hand.actuators[channel]] = q
-    for _ in range(int(round(CLOSE / model.opt.timestep))):
-        mujoco.mj_step(model, data)
-    # Let go gently: the weld softens over RELEASE s, so the fingers' squeeze does not fling the object.
-    steps = int(round(RELEASE / model.opt.timestep))
-    for step in range(steps):
-        model.eq_solref[weld, 0] = 0.002 * (1000.0 ** (step / steps))
-        mujoco.mj_step(model, data)
-    data.eq_active[weld] = 0
-    for _ in range(int(round(SETTLE / model.opt.timestep))):
-        mujoco.mj_step(model, data)
-    result.contacts, result.grip = touching()
-    result.state = (data.qpos.copy(), data.ctrl.copy())
-    held_at = in_hand()
-    for direction, vector in DIRECTIONS.items():
-        world = data.xmat[base].reshape(3, 3) @ (flip * np.array(vector))
-        model.opt.gravity[:] = GRAVITY * world
+    def slip(self, gravity: np.ndarray, held_at: np.ndarray) -> float:
+        """HOLD s under `gravity`: the object's largest distance from `held_at` in the hand frame."""
+        import mujoco
+
+        self.model.opt.gravity[:] = gravity
         worst = 0.0
-        for _ in range(int(round(HOLD / model.opt.timestep))):
-            mujoco.mj_step(model, data)
-            worst = max(worst, float(np.linalg.norm(in_hand() - held_at)))
+        for _ in self.steps(HOLD):
+            mujoco.mj_step(self.model, self.data)
+            worst = max(worst, float(np.linalg.norm(self.in_hand() - held_at)))
             if worst > 0.05:  # dropped: no need to watch it fall
                 break
-        result.slip[direction] = worst
-        if not np.isfinite(data.qpos).all():
-            result.problems.append(f"{name}: simulation diverged ({direction})")
+        return worst
+
+
+def _turn_gravity(sim: _GraspSim, flip: np.ndarray, result: GraspResult) -> None:
+    """Gravity along each hand direction in turn; the slip in each (stops where the simulation diverges)."""
+    held_at = sim.in_hand()
+    for direction, vector in DIRECTIONS.items():
+        world = sim.data.xmat[sim.base].reshape(3, 3) @ (flip * np.array(vector))
+        result.slip[direction] = sim.slip(GRAVITY * world, held_at)
+        if not np.isfinite(sim.data.qpos).all():
+            result.problems.append(f"{result.name}: simulation diverged ({direction})")
             break
+
+
+def _hold_problems(result: GraspResult, grasp: dict[str, Any]) -> list[str]:
+    """Slip over SLIP in any direction; a finger the grasp names that does not touch the object."""
+    problems = []
     bad = {d: s for d, s in result.slip.items() if not s < SLIP}
     if bad:
-        result.problems.append(f"{name}: slips " + ", ".join(f"{s * 1000:.1f} mm {d}" for d, s in bad.items()))
+        problems.append(f"{result.name}: slips " + ", ".join(f"{s * 1000:.1f} mm {d}" for d, s in bad.items()))
     missing = [f for f in grasp.get("fingers", []) if not result.contacts.get(f)]
     if missing:
-        result.problems.append(f"{name}: {', '.join(missing)} not touching the {grasp['object']}")
-    if grasp.get("tips"):
-        result.tip_gap, result.tip_others = _tips_meet(mjcf, hand, name, grasp["tips"])
-        if not result.tip_gap < TIP_GAP:
-            tips = " and ".join(grasp["tips"])
-            result.problems.append(f"{name}: {tips} tips {result.tip_gap * 1000:.1f} mm apart closing on nothing")
-        if result.tip_others:
-            result.problems.append(f"{name}: other contacts on the pinching fingers: {', '.join(result.tip_others)}")
-    return result
+        problems.append(f"{result.name}: {', '.join(missing)} not touching the {grasp['object']}")
+    return problems
+
+
+def _pinch_problems(name: str, tips: list[str], gap: float, others: tuple[str, ...]) -> list[str]:
+    """Closing on nothing: the tips farther than TIP_GAP apart, or other contacts on their fingers."""
+    problems = []
+    if not gap < TIP_GAP:
+        problems.append(f"{name}: {' and '.join(tips)} tips {gap * 1000:.1f} mm apart closing on nothing")
+    if others:
+        problems.append(f"{name}: other contacts on the pinching fingers: {', '.join(others)}")
+    return problems
 
 
 def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size: tuple[int, int]) -> GraspResult:

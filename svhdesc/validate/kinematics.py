@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -62,65 +63,26 @@ def _unmimicked_urdf(path: Any) -> Any:
 
 
 def check_kinematics(pair: ModelPair, options: Options) -> list[Check]:
-    import mujoco
-
     bound = f"<= {POS_TOL:g} m, {ROT_TOL:g} rad"
-    if pair.model is None:
-        return [not_run("kinematics", "the MJCF does not compile", bound)]
-    if pair.urdf is None:
-        return [not_run("kinematics", f"the URDF cannot be read ({pair.urdf_error})", bound)]
-    try:
-        robot = _unmimicked_urdf(pair.urdf_path)
-    except ImportError:
-        return [not_run("kinematics", "yourdfpy is not installed", bound, missing_tool="pip install yourdfpy")]
-    except Exception as exc:  # a URDF yourdfpy cannot load fails the yourdfpy check; here we cannot compare
-        return [not_run("kinematics", f"yourdfpy cannot load the URDF: {exc}", bound)]
+    robot = _comparable_urdf(pair, bound)
+    if isinstance(robot, Check):
+        return [robot]
     model = pair.model
-    data = mujoco.MjData(model)
     root = robot.base_link
-    problems: list[str] = []
-    mj_joints = {model.joint(j).name for j in range(model.njnt)}
-    urdf_joints = set(robot.actuated_joint_names)
-    if urdf_joints - mj_joints:
-        problems.append(f"URDF joints missing in the MJCF: {sorted(urdf_joints - mj_joints)}")
-    if mj_joints - urdf_joints:
-        problems.append(f"MJCF joints missing in the URDF: {sorted(mj_joints - urdf_joints)}")
     body_ids = {model.body(b).name: b for b in range(model.nbody)}
+    problems = _joint_name_problems(model, robot)
     links = [name for name in robot.link_map if name in body_ids or name == root]
     missing_bodies = [name for name in robot.link_map if name not in body_ids and name != root]
     if missing_bodies:
         problems.append(f"URDF links without an MJCF body: {missing_bodies}")
-    # The URDF root is the MJCF world when it is the geometry-less 'world' link, else a body at the origin.
-    root_body = body_ids.get(root, 0)
-    rng = np.random.default_rng(options.seed)
-    worst_pos, worst_rot = (0.0, "", -1), (0.0, "", -1)
-    bad_links: dict[str, tuple[float, float]] = {}
-    for index, q in enumerate(sample_configurations(model, options.samples, rng)):
-        data.qpos[:] = model.qpos0
-        for name, value in q.items():
-            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
-        mujoco.mj_kinematics(model, data)
-        robot.update_cfg(np.array([q.get(name, 0.0) for name in robot.actuated_joint_names]))
-        root_rot = data.xmat[root_body].reshape(3, 3)
-        root_pos = data.xpos[root_body]
-        for link in links:
-            urdf_pose = robot.get_transform(link, root)
-            body = body_ids.get(link, root_body)
-            mj_rot = root_rot.T @ data.xmat[body].reshape(3, 3)
-            mj_pos = root_rot.T @ (data.xpos[body] - root_pos)
-            pos_err = float(np.linalg.norm(urdf_pose[:3, 3] - mj_pos))
-            rot_err = rotation_angle(urdf_pose[:3, :3], mj_rot)
-            if pos_err > worst_pos[0]:
-                worst_pos = (pos_err, link, index)
-            if rot_err > worst_rot[0]:
-                worst_rot = (rot_err, link, index)
-            if pos_err > POS_TOL or rot_err > ROT_TOL:
-                old = bad_links.get(link, (0.0, 0.0))
-                bad_links[link] = (max(old[0], pos_err), max(old[1], rot_err))
-    if bad_links:
+    samples = sample_configurations(model, options.samples, np.random.default_rng(options.seed))
+    errors = _compare_frames(model, robot, links, body_ids, samples)
+    if errors.bad_links:
         # The first link (in tree order) that disagrees is where the two files part ways.
+        bad_links = errors.bad_links
         listed = ", ".join(f"{k} ({v[0]:.3g} m, {v[1]:.3g} rad)" for k, v in list(bad_links.items())[:4])
         problems.append(f"{len(bad_links)} link(s) disagree: {listed}{', ...' if len(bad_links) > 4 else ''}")
+    worst_pos, worst_rot = errors.worst_pos, errors.worst_rot
     detail = "; ".join(problems) or (
         f"{options.samples} configurations x {len(links)} links; worst position "
         f"{worst_pos[1] or '-'}, worst rotation {worst_rot[1] or '-'}"
@@ -137,8 +99,82 @@ def check_kinematics(pair: ModelPair, options: Options) -> list[Check]:
                 "links": len(links),
                 "max_position_error_m": worst_pos[0],
                 "max_rotation_error_rad": worst_rot[0],
-                "disagreeing_links": bad_links,
+                "disagreeing_links": errors.bad_links,
                 "problems": problems,
             },
         )
     ]
+
+
+def _comparable_urdf(pair: ModelPair, bound: str) -> Any:
+    """The URDF as yourdfpy loads it without mimics; or the not-run check saying why there is nothing to compare."""
+    if pair.model is None:
+        return not_run("kinematics", "the MJCF does not compile", bound)
+    if pair.urdf is None:
+        return not_run("kinematics", f"the URDF cannot be read ({pair.urdf_error})", bound)
+    try:
+        return _unmimicked_urdf(pair.urdf_path)
+    except ImportError:
+        return not_run("kinematics", "yourdfpy is not installed", bound, missing_tool="pip install yourdfpy")
+    except Exception as exc:  # a URDF yourdfpy cannot load fails the yourdfpy check; here we cannot compare
+        return not_run("kinematics", f"yourdfpy cannot load the URDF: {exc}", bound)
+
+
+def _joint_name_problems(model: Any, robot: Any) -> list[str]:
+    """Joints one file has and the other lacks."""
+    problems = []
+    mj_joints = {model.joint(j).name for j in range(model.njnt)}
+    urdf_joints = set(robot.actuated_joint_names)
+    if urdf_joints - mj_joints:
+        problems.append(f"URDF joints missing in the MJCF: {sorted(urdf_joints - mj_joints)}")
+    if mj_joints - urdf_joints:
+        problems.append(f"MJCF joints missing in the URDF: {sorted(mj_joints - urdf_joints)}")
+    return problems
+
+
+@dataclass
+class _FrameErrors:
+    """The worst position and rotation error (value, link, sample) and each link over the tolerances."""
+
+    worst_pos: tuple[float, str, int] = (0.0, "", -1)
+    worst_rot: tuple[float, str, int] = (0.0, "", -1)
+    bad_links: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def add(self, link: str, index: int, pos_err: float, rot_err: float) -> None:
+        if pos_err > self.worst_pos[0]:
+            self.worst_pos = (pos_err, link, index)
+        if rot_err > self.worst_rot[0]:
+            self.worst_rot = (rot_err, link, index)
+        if pos_err > POS_TOL or rot_err > ROT_TOL:
+            old = self.bad_links.get(link, (0.0, 0.0))
+            self.bad_links[link] = (max(old[0], pos_err), max(old[1], rot_err))
+
+
+def _compare_frames(
+    model: Any, robot: Any, links: list[str], body_ids: dict[str, int], samples: list[dict[str, float]]
+) -> _FrameErrors:
+    """Each link's frame relative to the root, by yourdfpy and by MuJoCo, in every sampled configuration."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    root = robot.base_link
+    # The URDF root is the MJCF world when it is the geometry-less 'world' link, else a body at the origin.
+    root_body = body_ids.get(root, 0)
+    errors = _FrameErrors()
+    for index, q in enumerate(samples):
+        data.qpos[:] = model.qpos0
+        for name, value in q.items():
+            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+        mujoco.mj_kinematics(model, data)
+        robot.update_cfg(np.array([q.get(name, 0.0) for name in robot.actuated_joint_names]))
+        root_rot = data.xmat[root_body].reshape(3, 3)
+        root_pos = data.xpos[root_body]
+        for link in links:
+            urdf_pose = robot.get_transform(link, root)
+            body = body_ids.get(link, root_body)
+            mj_rot = root_rot.T @ data.xmat[body].reshape(3, 3)
+            mj_pos = root_rot.T @ (data.xpos[body] - root_pos)
+            errors.add(
+                link, index, float(np.linalg.norm(urdf_pose[:3, 3] - mj_pos)), rotation_angle(urdf_pose[:3, :3], mj_rot)
+            )
+    return errors

@@ -173,25 +173,11 @@ def check_sdformat(pair: ModelPair, options: Options) -> list[Check]:
     except etree.XMLSyntaxError as exc:
         return [Check("sdformat", "fail", "unparsable output", bound, str(exc))]
     sdf_joints = {j.get("name") for j in sdf.iter("joint") if j.get("type") not in (None, "fixed")}
-    facts = pair.urdf
-    dropped: list[str] = []
-    if facts is not None:
-        dropped = [name for name, j in facts.joints.items() if j.movable and name not in sdf_joints]
-        if dropped:
-            problems.append(
-                f"{len(dropped)} of {sum(j.movable for j in facts.joints.values())} movable joints "
-                f"dropped ({', '.join(dropped[:4])}{', ...' if len(dropped) > 4 else ''}); "
-                f"{_massless_cause(pair, dropped)}"
-            )
+    dropped = _dropped_joints(pair, sdf_joints, problems)
     uris = [u.text.strip() for u in sdf.iter("uri") if u.text]
-    unresolved = [u for u in uris if (p := _local_mesh(u, base)) is not None and not p.is_file()]
-    if unresolved:
-        problems.append(f"{len(unresolved)} mesh URI(s) do not resolve, e.g. {unresolved[0]}")
+    unresolved = _unresolved_uris(uris, base, problems)
     links = sum(1 for _ in sdf.iter("link"))
     measured = f"{links} links, {len(sdf_joints)} movable joints"
-    unknown = sum(1 for u in uris if _local_mesh(u, base) is None)
-    if unknown:
-        problems.append(f"{unknown} mesh URI(s) in a scheme nothing here resolves")
     detail = "; ".join(problems) or f"valid; all {len(uris)} mesh URIs resolve"
     return [
         Check(
@@ -208,6 +194,33 @@ def check_sdformat(pair: ModelPair, options: Options) -> list[Check]:
             },
         )
     ]
+
+
+def _dropped_joints(pair: ModelPair, sdf_joints: set[str], problems: list[str]) -> list[str]:
+    """The URDF's movable joints the SDFormat lacks (a problem naming them and why, appended to `problems`)."""
+    facts = pair.urdf
+    if facts is None:
+        return []
+    dropped = [name for name, j in facts.joints.items() if j.movable and name not in sdf_joints]
+    if dropped:
+        problems.append(
+            f"{len(dropped)} of {sum(j.movable for j in facts.joints.values())} movable joints "
+            f"dropped ({', '.join(dropped[:4])}{', ...' if len(dropped) > 4 else ''}); "
+            f"{_massless_cause(pair, dropped)}"
+        )
+    return dropped
+
+
+def _unresolved_uris(uris: list[str], base: Path, problems: list[str]) -> list[str]:
+    """The mesh URIs that name a missing file; those and the URIs in a scheme nothing resolves are problems
+    (appended to `problems`)."""
+    unresolved = [u for u in uris if (p := _local_mesh(u, base)) is not None and not p.is_file()]
+    if unresolved:
+        problems.append(f"{len(unresolved)} mesh URI(s) do not resolve, e.g. {unresolved[0]}")
+    unknown = sum(1 for u in uris if _local_mesh(u, base) is None)
+    if unknown:
+        problems.append(f"{unknown} mesh URI(s) in a scheme nothing here resolves")
+    return unresolved
 
 
 def _massless_cause(pair: ModelPair, dropped: list[str]) -> str:

@@ -8,6 +8,7 @@ contact with the moving finger: the collision geometry that blocks it.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -63,49 +64,17 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     if prefix is None:
         return [skipped("range_of_motion", "no SVH hand", bound)]
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
-    equalities = joint_equalities(model)
-    actuator_of = {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)}
-    hand_dofs = np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    data = mujoco.MjData(model)
-    results: dict[str, dict[str, Any]] = {}
-    problems = []
-    for name, (low, high) in channels.items():
-        if home >= 0:
-            mujoco.mj_resetDataKeyframe(model, data, home)
-        else:
-            mujoco.mj_resetData(model, data)
-        joint = model.joint(name).id
-        adr, actuator = int(model.jnt_qposadr[joint]), actuator_of[name]
-        tol = TOLERANCE * (high - low)
-        followers = [e for e in equalities if e.channel == name]
-        moving = set().union(
-            _subtree(model, int(model.jnt_bodyid[joint])),
-            *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),
-        )
-        reached: dict[str, float] = {}
-        entry: dict[str, Any] = {"range": [low, high], "followers": {}}
-        for label, goal in (("start", low), ("upper", high), ("lower", low)):
-            _stroke(model, data, actuator, goal, adr, hand_dofs, tol)
-            q = float(data.qpos[adr])
-            reached[label] = q
-            if abs(q - goal) > tol:
-                blockers = _blocking(model, data, moving)
-                entry.setdefault("blocked_by", {})[label] = blockers
-                problems.append(
-                    f"{name.removeprefix(prefix + '_')} stops at {q:.3f} of {goal:.4g} going {label}"
-                    + (f", blocked by {blockers[0]}" if blockers else "")
-                )
-            for e in followers:
-                expected = float(polyval(e.coeffs, goal))
-                got = float(data.qpos[model.jnt_qposadr[model.joint(e.joint).id]])
-                span = abs(float(polyval(e.coeffs, high)) - float(polyval(e.coeffs, low))) or 1.0
-                entry["followers"].setdefault(e.joint, {})[label] = got
-                if abs(got - expected) > TOLERANCE * span and abs(q - goal) <= tol:
-                    problems.append(f"{e.joint} reaches {got:.3f}, not {expected:.3f}, at {name} {label}")
-        entry["reached"] = [reached["lower"], reached["upper"]]
-        entry["fraction"] = (reached["upper"] - reached["lower"]) / (high - low) if high > low else 1.0
-        results[name] = entry
+    strokes = _Strokes(
+        model,
+        mujoco.MjData(model),
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home"),
+        np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int),
+        joint_equalities(model),
+        {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)},
+        prefix,
+    )
+    problems: list[str] = []
+    results = {name: strokes.channel(name, low, high, problems) for name, (low, high) in channels.items()}
     worst = min(results, key=lambda n: results[n]["fraction"]) if results else None
     rows = [
         [
@@ -127,3 +96,57 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
             table=table(rows, ["channel", "range (rad)", "reached (rad)", "reached"]),
         )
     ]
+
+
+@dataclass
+class _Strokes:
+    """The hand's channels driven one at a time from ``home`` (the model's reset state without one)."""
+
+    model: Any
+    data: Any
+    home: int  # keyframe id, < 0 where there is none
+    hand_dofs: np.ndarray  # the channels' dofs: a stroke ends once they are still
+    equalities: list[Any]  # validate.pair.Equality
+    actuator_of: dict[str, int]  # joint -> actuator
+    prefix: str
+
+    def channel(self, name: str, low: float, high: float, problems: list[str]) -> dict[str, Any]:
+        """Lower end, upper end, lower end again: what the channel and its followers reached (and what blocked
+        it); each end missed is appended to `problems`."""
+        import mujoco
+
+        model, data = self.model, self.data
+        if self.home >= 0:
+            mujoco.mj_resetDataKeyframe(model, data, self.home)
+        else:
+            mujoco.mj_resetData(model, data)
+        joint = model.joint(name).id
+        adr, actuator = int(model.jnt_qposadr[joint]), self.actuator_of[name]
+        tol = TOLERANCE * (high - low)
+        followers = [e for e in self.equalities if e.channel == name]
+        moving = set().union(
+            _subtree(model, int(model.jnt_bodyid[joint])),
+            *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),
+        )
+        reached: dict[str, float] = {}
+        entry: dict[str, Any] = {"range": [low, high], "followers": {}}
+        for label, goal in (("start", low), ("upper", high), ("lower", low)):
+            _stroke(model, data, actuator, goal, adr, self.hand_dofs, tol)
+            q = reached[label] = float(data.qpos[adr])
+            if abs(q - goal) > tol:
+                blockers = _blocking(model, data, moving)
+                entry.setdefault("blocked_by", {})[label] = blockers
+                problems.append(
+                    f"{name.removeprefix(self.prefix + '_')} stops at {q:.3f} of {goal:.4g} going {label}"
+                    + (f", blocked by {blockers[0]}" if blockers else "")
+                )
+            for e in followers:
+                expected = float(polyval(e.coeffs, goal))
+                got = float(data.qpos[model.jnt_qposadr[model.joint(e.joint).id]])
+                span = abs(float(polyval(e.coeffs, high)) - float(polyval(e.coeffs, low))) or 1.0
+                entry["followers"].setdefault(e.joint, {})[label] = got
+                if abs(got - expected) > TOLERANCE * span and abs(q - goal) <= tol:
+                    problems.append(f"{e.joint} reaches {got:.3f}, not {expected:.3f}, at {name} {label}")
+        entry["reached"] = [reached["lower"], reached["upper"]]
+        entry["fraction"] = (reached["upper"] - reached["lower"]) / (high - low) if high > low else 1.0
+        return entry

@@ -134,6 +134,13 @@ def render_report(report: VariantReport) -> str:
     return "\n".join(text)
 
 
+def all_passed(reports: list[VariantReport]) -> str:
+    """The closing line of a run whose every applicable check passed, counting those skipped."""
+    skipped = sum(len(r.skipped) for r in reports)
+    applicable = f"; {skipped} skipped as not applicable, listed above" if skipped else ""
+    return f"all checks passed ({len(reports)} model(s){applicable})"
+
+
 def write_json(reports: list[VariantReport], path: Any, allow_missing_tools: bool) -> None:
     document = {
         "passed": all(not r.failed(allow_missing_tools) for r in reports),

@@ -20,17 +20,27 @@ LIMIT_TOL = 1e-9
 
 
 def _mjcf_problems(m: Any) -> list[str]:  # m: mujoco.MjModel
-    import mujoco
-
     problems = []
     if not m.opt.timestep > 0:
         problems.append(f"timestep {m.opt.timestep:g} must be > 0")
-    driven: set[int] = set()
+    problems += _actuator_problems(m)
+    joint_problems, limited = _joint_problems(m)
+    return problems + joint_problems + _keyframe_problems(m, limited)
+
+
+def _driven_joints(m: Any) -> set[int]:
+    """The joints an actuator drives directly."""
+    import mujoco
+
     joint_kinds = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
+    return {int(m.actuator_trnid[i, 0]) for i in range(m.nu) if int(m.actuator_trntype[i]) in joint_kinds}
+
+
+def _actuator_problems(m: Any) -> list[str]:
+    """Ordered commands, a force range holding zero strictly inside, gains >= 0."""
+    problems = []
     for i in range(m.nu):
         name = m.actuator(i).name
-        if int(m.actuator_trntype[i]) in joint_kinds:
-            driven.add(int(m.actuator_trnid[i, 0]))
         # With autolimits an inverted range silently turns the limit off: read the numbers themselves.
         low, high = m.actuator_ctrlrange[i]
         if (m.actuator_ctrllimited[i] or low or high) and not low < high:
@@ -40,6 +50,16 @@ def _mjcf_problems(m: Any) -> list[str]:  # m: mujoco.MjModel
             problems.append(f"actuator {name}: forcerange [{low:g}, {high:g}] must hold zero strictly inside")
         if m.actuator_gainprm[i, 0] < 0:
             problems.append(f"actuator {name}: gain {m.actuator_gainprm[i, 0]:g} must be >= 0")
+    return problems
+
+
+def _joint_problems(m: Any) -> tuple[list[str], dict[int, tuple[float, float]]]:
+    """Every hinge and slide driven (an actuator or a joint equality) with ordered limits; and the limited ones'
+    ranges."""
+    import mujoco
+
+    problems = []
+    driven = _driven_joints(m)
     coupled = {eq.joint for eq in joint_equalities(m)}
     limited: dict[int, tuple[float, float]] = {}
     for j in range(m.njnt):
@@ -53,6 +73,12 @@ def _mjcf_problems(m: Any) -> list[str]:  # m: mujoco.MjModel
             if not low <= high:
                 problems.append(f"joint {joint.name}: range [{low:g}, {high:g}] is not ordered")
             limited[j] = (low, high)
+    return problems, limited
+
+
+def _keyframe_problems(m: Any, limited: dict[int, tuple[float, float]]) -> list[str]:
+    """Every keyframe within the limited joints' ranges."""
+    problems = []
     for k in range(m.nkey):
         for j, (low, high) in limited.items():
             value = float(m.key_qpos[k, m.jnt_qposadr[j]])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,8 +40,6 @@ def random_target_start(model: Any, seed: int) -> tuple[Any, np.random.Generator
 
 def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
     """Random targets uniformly across each actuator's ctrlrange, a new one every 0.05 s, from a seeded RNG."""
-    import mujoco
-
     sim_bound, coupling_bound = "compiles, 0 warnings, no NaN", f"<= {COUPLING_TOL:g} rad"
     if pair.model is None:
         return [
@@ -49,29 +48,8 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
         ]
     model = pair.model
     data, rng, low, high = random_target_start(model, options.seed)
-    steps = int(round(DURATION / model.opt.timestep))
-    period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
-    equalities = joint_equalities(model)
-    coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
-    leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
-    coeffs = np.zeros((len(equalities), 5))
-    for i, e in enumerate(equalities):
-        coeffs[i, : len(e.coeffs)] = e.coeffs
-    worst = np.zeros(len(equalities))
-    nan_at = None
-    for step in range(steps):
-        if step % period == 0:
-            data.ctrl[:] = rng.uniform(low, high)
-        mujoco.mj_step(model, data)
-        if not all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc)):
-            nan_at = step * model.opt.timestep
-            break
-        if len(equalities):
-            q = data.qpos[leaders]
-            expected = coeffs[:, 4].copy()
-            for k in (3, 2, 1, 0):  # Horner
-                expected = expected * q + coeffs[:, k]
-            np.maximum(worst, np.abs(data.qpos[coupled] - expected), out=worst)
+    tracking = _Tracking.of(model, joint_equalities(model))
+    nan_at = _run_random_targets(model, data, rng, (low, high), tracking)
     warnings = warning_counts(data)
     ok = not warnings and nan_at is None
     detail = []
@@ -97,10 +75,61 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
             },
         )
     ]
-    if not equalities:
+    if not tracking.equalities:
         checks.append(skipped("coupling_tracking", "no couplings", coupling_bound))
         return checks
-    errors = {e.joint: float(w) for e, w in zip(equalities, worst, strict=True)}
+    checks.append(_coupling_check(tracking, nan_at, coupling_bound))
+    return checks
+
+
+@dataclass
+class _Tracking:
+    """Each coupled joint's worst distance from its polynomial of its channel (Horner over padded coefficients)."""
+
+    equalities: list[Any]  # validate.pair.Equality
+    coupled: np.ndarray  # qpos addresses of the coupled joints
+    leaders: np.ndarray  # and of their channels
+    coeffs: np.ndarray  # equalities x 5
+    worst: np.ndarray
+
+    @classmethod
+    def of(cls, model: Any, equalities: list[Any]) -> _Tracking:
+        coupled = np.array([model.jnt_qposadr[model.joint(e.joint).id] for e in equalities], dtype=int)
+        leaders = np.array([model.jnt_qposadr[model.joint(e.channel).id] for e in equalities], dtype=int)
+        coeffs = np.zeros((len(equalities), 5))
+        for i, e in enumerate(equalities):
+            coeffs[i, : len(e.coeffs)] = e.coeffs
+        return cls(equalities, coupled, leaders, coeffs, np.zeros(len(equalities)))
+
+    def update(self, data: Any) -> None:
+        q = data.qpos[self.leaders]
+        expected = self.coeffs[:, 4].copy()
+        for k in (3, 2, 1, 0):  # Horner
+            expected = expected * q + self.coeffs[:, k]
+        np.maximum(self.worst, np.abs(data.qpos[self.coupled] - expected), out=self.worst)
+
+
+def _run_random_targets(
+    model: Any, data: Any, rng: np.random.Generator, ranges: tuple[np.ndarray, np.ndarray], tracking: _Tracking
+) -> float | None:
+    """DURATION s of random targets, tracking the couplings every step; when the state turned NaN, if it did."""
+    import mujoco
+
+    low, high = ranges
+    period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
+    for step in range(int(round(DURATION / model.opt.timestep))):
+        if step % period == 0:
+            data.ctrl[:] = rng.uniform(low, high)
+        mujoco.mj_step(model, data)
+        if not all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc)):
+            return step * model.opt.timestep
+        if len(tracking.equalities):
+            tracking.update(data)
+    return None
+
+
+def _coupling_check(tracking: _Tracking, nan_at: float | None, bound: str) -> Check:
+    errors = {e.joint: float(w) for e, w in zip(tracking.equalities, tracking.worst, strict=True)}
     worst_joint = max(errors, key=errors.get)  # type: ignore[arg-type]
     bad = {k: v for k, v in errors.items() if v > COUPLING_TOL}
     detail_text = (
@@ -108,14 +137,11 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
     )
     if nan_at is not None:
         detail_text += f" (run stopped at NaN, t = {nan_at:.3f} s)"
-    checks.append(
-        Check(
-            "coupling_tracking",
-            verdict(not bad and nan_at is None),
-            f"{fmt(errors[worst_joint])} rad",
-            coupling_bound,
-            detail_text,
-            {"max_error_rad": errors},
-        )
+    return Check(
+        "coupling_tracking",
+        verdict(not bad and nan_at is None),
+        f"{fmt(errors[worst_joint])} rad",
+        bound,
+        detail_text,
+        {"max_error_rad": errors},
     )
-    return checks

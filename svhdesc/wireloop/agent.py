@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from svhdesc.wireloop.env import CCW, CW, HIT, OUT, Environment, Snapshot
@@ -68,36 +69,35 @@ def run_episode(
     ``script``: take these actions instead of choosing (for tests of the rules); the episode ends with
     outcome ``stalled`` when they run out before a stop.
     """
+    return _walk(env, q, start, _policy(script, epsilon, rng), (alpha, gamma) if learn else None, trace)
+
+
+def _walk(
+    env: Environment,
+    q: dict[int, list[float]],
+    start: Snapshot,
+    choose: Callable[[int, list[float]], int | None],
+    learning: tuple[float, float] | None,
+    trace: bool,
+) -> Episode:
+    """The episode's loop: `choose` picks each action; eq. 1 updates `q` with `learning`'s (alpha, gamma)."""
+    # ~10^4 steps per training: the tables live in locals (the rewards of rare events are read where they happen).
     cfg = env.config
     transition, pattern = env.transition, env.pattern
     objective_index, offset = env.objective_index, env.objective_offset
-    end, index, patience = env.end, env.index, cfg.patience
+    end, index, patience, r_step = env.end, env.index, cfg.patience, cfg.reward_step
     limit = 4 * len(env.path_cells) + 100  # a hard cap as well: objectives reached going back and forth
-    r_hit, r_out, r_lost = cfg.reward_hit, cfg.reward_out, cfg.reward_lost
-    r_objective, r_done, r_step = cfg.reward_objective, cfg.reward_done, cfg.reward_step
-    rand = rng.random if rng is not None else None
+    alpha, gamma = learning or (0.0, 0.0)
     cell, rotation, objective = start.cell, start.rotation, start.objective
     direction, previous = start.direction, start.previous
     code = cell * 4 + rotation
-    state = pattern[cell] | objective_index[objective - cell + offset] << 25 | rotation << 30
-    values = q.get(state)
-    if values is None:
-        values = q[state] = [0.0] * 6
-    stable = start
-    best = index.get(start.previous, 0)
+    values = _row(q, pattern[cell] | objective_index[objective - cell + offset] << 25 | rotation << 30)
+    stable, best = start, index.get(start.previous, 0)
     cells: list[int] = []
     actions: list[int] = []
     steps = idle = 0
     outcome = STALLED
-    while True:
-        if script is not None:
-            if steps == len(script):
-                break
-            action = script[steps]
-        elif epsilon and rand() < epsilon:
-            action = int(rand() * 6)
-        else:
-            action = values.index(max(values))
+    while (action := choose(steps, values)) is not None:
         steps += 1
         idle += 1
         nxt = transition[code * 6 + action]
@@ -106,42 +106,58 @@ def run_episode(
             cells.append(nxt)
         if nxt < 0:
             outcome = HIT_WIRE if nxt == HIT else LEFT_AREA
-            if learn:
-                values[action] += alpha * ((r_hit if nxt == HIT else r_out) - values[action])
-            break
-        code = nxt
-        cell, rotation = nxt >> 2, nxt & 3
-        if action < CW:
-            direction = action
-        terminal = False
-        if cell == end:
-            reward, terminal, outcome, best = r_done, True, COMPLETED, len(env.path_cells) - 1
-        elif cell == objective:
-            reward = r_objective
-            objective, previous = env.next_objective(cell, direction, objective, previous), objective
-            best = max(best, index[cell])
-            stable = Snapshot(cell, rotation, objective, direction, previous)
-            idle = 0
+            reward, terminal = (cfg.reward_hit if nxt == HIT else cfg.reward_out), True
         else:
-            rel = objective_index[objective - cell + offset]
-            if rel < 0:
-                reward, terminal, outcome = r_lost, True, LOST_OBJECTIVE
-            else:
-                reward = r_step
+            code = nxt
+            cell, rotation = nxt >> 2, nxt & 3
+            if action < CW:
+                direction = action
+            reward, terminal = r_step, False
+            if cell == end:
+                reward, terminal, outcome, best = cfg.reward_done, True, COMPLETED, len(env.path_cells) - 1
+            elif cell == objective:
+                objective, previous = env.next_objective(cell, direction, objective, previous), objective
+                reward, best, idle = cfg.reward_objective, max(best, index[cell]), 0
+                stable = Snapshot(cell, rotation, objective, direction, previous)
+            elif objective_index[objective - cell + offset] < 0:
+                reward, terminal, outcome = cfg.reward_lost, True, LOST_OBJECTIVE
         if terminal:
-            if learn:
+            if learning:
                 values[action] += alpha * (reward - values[action])
             break
-        state = pattern[cell] | objective_index[objective - cell + offset] << 25 | rotation << 30
-        following = q.get(state)
-        if following is None:
-            following = q[state] = [0.0] * 6
-        if learn:
+        following = _row(q, pattern[cell] | objective_index[objective - cell + offset] << 25 | rotation << 30)
+        if learning:
             values[action] += alpha * (reward + gamma * max(following) - values[action])
         values = following
         if idle >= patience or steps >= limit:
             break
     return Episode(outcome, steps, best, stable, cells, actions)
+
+
+def _row(q: dict[int, list[float]], state: int) -> list[float]:
+    """The state's action values; a state seen for the first time gets zeros."""
+    values = q.get(state)
+    if values is None:
+        values = q[state] = [0.0] * 6
+    return values
+
+
+def _policy(
+    script: list[int] | None, epsilon: float, rng: random.Random | None
+) -> Callable[[int, list[float]], int | None]:
+    """choose(steps taken, action values) -> the next action, or None when a script has run out."""
+    if script is not None:
+        return lambda steps, _values: script[steps] if steps < len(script) else None
+    if epsilon:
+        rand = rng.random
+
+        def epsilon_greedy(_steps: int, values: list[float]) -> int:
+            if rand() < epsilon:
+                return int(rand() * 6)
+            return values.index(max(values))
+
+        return epsilon_greedy
+    return lambda _steps, values: values.index(max(values))
 
 
 def train(env: Environment, agent: AgentConfig | None = None, seed: int = 0) -> TrainingResult:

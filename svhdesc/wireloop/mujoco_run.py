@@ -90,6 +90,77 @@ def _runs(wire_map: WireMap) -> list[tuple[tuple[int, int], tuple[int, int]]]:
     return runs
 
 
+def _palm_at_home(spec: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The palm body's world position and rotation in the ``home`` keyframe."""
+    mujoco = _mujoco()
+    base = spec.compile()
+    data = mujoco.MjData(base)
+    mujoco.mj_resetDataKeyframe(base, data, base.key("home").id)
+    mujoco.mj_forward(base, data)
+    return data.body(PALM).xpos.copy(), data.body(PALM).xmat.reshape(3, 3).copy()
+
+
+def _add_loop(palm: Any, palm_mat: np.ndarray, cfg: SceneConfig) -> int:
+    """The loop on the palm: its centre site, a ring of capsules and the handle. The ring's segment count."""
+    mujoco = _mujoco()
+    # The ring's frame: x along the loop's horizontal diameter, z down (like the palm in the home pose).
+    site_world = np.diag([1.0, -1.0, -1.0])
+    local_rot = palm_mat.T @ site_world
+    local_pos = palm_mat.T @ np.array([0.0, 0.0, -cfg.drop])
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, local_rot.ravel())
+    palm.add_site(name=SITE, pos=local_pos, quat=quat, size=[0.003, 0, 0], group=4)
+
+    def to_palm(point: np.ndarray) -> np.ndarray:
+        return local_pos + local_rot @ point
+
+    ring_rgba = [0.85, 0.55, 0.1, 1.0]
+    segments = 24
+    points = [
+        np.array([cfg.ring_radius * math.cos(a), 0.0, cfg.ring_radius * math.sin(a)])
+        for a in np.linspace(0.0, 2 * math.pi, segments + 1)
+    ]
+    for i in range(segments):
+        palm.add_geom(
+            name=f"wireloop_ring_{i}",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=np.concatenate([to_palm(points[i]), to_palm(points[i + 1])]),
+            size=[cfg.tube_radius, 0, 0],
+            contype=WIRE_BITS,
+            conaffinity=WIRE_BITS,
+            mass=0.002,
+            rgba=ring_rgba,
+        )
+    # The handle: from the ring's top up to the fingers (it collides with nothing).
+    palm.add_geom(
+        name="wireloop_handle",
+        type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+        fromto=np.concatenate([to_palm(np.array([0, 0, -cfg.ring_radius])), to_palm(np.array([0, 0, -0.18]))]),
+        size=[0.003, 0, 0],
+        contype=0,
+        conaffinity=0,
+        mass=0.02,
+        rgba=ring_rgba,
+    )
+    return segments
+
+
+def _add_trace(spec: Any, markers: list[list[float]]) -> None:
+    """The ring centre's path (``markers``, world points) as thin capsules just above the wire."""
+    mujoco = _mujoco()
+    for i, (a, b) in enumerate(zip(markers, markers[1:])):
+        spec.worldbody.add_geom(
+            name=f"wireloop_trace_{i}",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=np.array(a + b) + np.array([0, 0, 0.004, 0, 0, 0.004]),  # drawn just above the wire
+            size=[0.0007, 0, 0],
+            contype=0,
+            conaffinity=0,
+            group=2,
+            rgba=[0.1, 0.4, 0.9, 1.0],
+        )
+
+
 class Scene:
     """The extended model and the grid-to-world mapping."""
 
@@ -101,64 +172,19 @@ class Scene:
         mujoco = _mujoco()
         self.map = wire_map
         self.config = cfg = config or SceneConfig()
-        scene_path = svhdesc.get(VARIANT).scene_path
-        spec = mujoco.MjSpec.from_file(str(scene_path))
+        spec = mujoco.MjSpec.from_file(str(svhdesc.get(VARIANT).scene_path))
         # Where the palm is in the home pose decides where the wire goes (below it, centred).
-        base = spec.compile()
-        data = mujoco.MjData(base)
-        mujoco.mj_resetDataKeyframe(base, data, base.key("home").id)
-        mujoco.mj_forward(base, data)
-        palm_pos = data.body(PALM).xpos.copy()
-        palm_mat = data.body(PALM).xmat.reshape(3, 3).copy()
+        palm_pos, palm_mat = _palm_at_home(spec)
         self.height = float(palm_pos[2] - cfg.drop)
         rows = [r for r, _ in wire_map.path]
         cols = [c for _, c in wire_map.path]
         self.centre_rc = ((min(rows) + max(rows)) / 2.0, (min(cols) + max(cols)) / 2.0)
         self.centre_xy = (float(palm_pos[0]), float(palm_pos[1]))
-
         for body in spec.bodies:
             body.gravcomp = 1.0
-        # The ring's frame: x along the loop's horizontal diameter, z down (like the palm in the home pose).
-        site_world = np.diag([1.0, -1.0, -1.0])
-        local_rot = palm_mat.T @ site_world
-        local_pos = palm_mat.T @ np.array([0.0, 0.0, -cfg.drop])
-        palm = spec.body(PALM)
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, local_rot.ravel())
-        palm.add_site(name=SITE, pos=local_pos, quat=quat, size=[0.003, 0, 0], group=4)
-
-        def to_palm(point: np.ndarray) -> np.ndarray:
-            return local_pos + local_rot @ point
-
-        ring_rgba = [0.85, 0.55, 0.1, 1.0]
-        segments = 24
-        points = [
-            np.array([cfg.ring_radius * math.cos(a), 0.0, cfg.ring_radius * math.sin(a)])
-            for a in np.linspace(0.0, 2 * math.pi, segments + 1)
-        ]
-        for i in range(segments):
-            palm.add_geom(
-                name=f"wireloop_ring_{i}",
-                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                fromto=np.concatenate([to_palm(points[i]), to_palm(points[i + 1])]),
-                size=[cfg.tube_radius, 0, 0],
-                contype=WIRE_BITS,
-                conaffinity=WIRE_BITS,
-                mass=0.002,
-                rgba=ring_rgba,
-            )
-        # The handle: from the ring's top up to the fingers (it collides with nothing).
-        palm.add_geom(
-            name="wireloop_handle",
-            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-            fromto=np.concatenate([to_palm(np.array([0, 0, -cfg.ring_radius])), to_palm(np.array([0, 0, -0.18]))]),
-            size=[0.003, 0, 0],
-            contype=0,
-            conaffinity=0,
-            mass=0.02,
-            rgba=ring_rgba,
-        )
-        for i, (first, last) in enumerate(_runs(wire_map)):
+        segments = _add_loop(spec.body(PALM), palm_mat, cfg)
+        runs = _runs(wire_map)
+        for i, (first, last) in enumerate(runs):
             spec.worldbody.add_geom(
                 name=f"wireloop_wire_{i}",
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -168,21 +194,10 @@ class Scene:
                 conaffinity=WIRE_BITS | 1,
                 rgba=[0.15, 0.15, 0.15, 1.0],
             )
-        for i, (a, b) in enumerate(zip(markers or [], (markers or [])[1:])):
-            spec.worldbody.add_geom(
-                name=f"wireloop_trace_{i}",
-                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                fromto=np.array(a + b) + np.array([0, 0, 0.004, 0, 0, 0.004]),  # drawn just above the wire
-                size=[0.0007, 0, 0],
-                contype=0,
-                conaffinity=0,
-                group=2,
-                rgba=[0.1, 0.4, 0.9, 1.0],
-            )
+        _add_trace(spec, markers or [])
         self.model = spec.compile()
         self.site = self.model.site(SITE).id
         self.ring = {self.model.geom(f"wireloop_ring_{i}").id for i in range(segments)}
-        runs = _runs(wire_map)
         self.wire = {self.model.geom(f"wireloop_wire_{i}").id for i in range(len(runs))}
         self.wire_segments = [
             (self.model.geom(f"wireloop_wire_{i}").id, self.world(*a), self.world(*b)) for i, (a, b) in enumerate(runs)
@@ -273,69 +288,23 @@ def execute(
     """Run the poses on the robot; report contacts and tracking."""
     import time
 
-    mujoco = _mujoco()
     began = time.perf_counter()
     scene = Scene(wire_map, config)
     cfg = scene.config
-    model = scene.model
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, scene.home)
-    ik = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, ik, scene.home)
-    first = poses[0]
-    if solve_ik(scene, ik, scene.world(first[0], first[1]), target_rotation(first[2]), iterations=200) > 1e-6:
-        raise SvhdescError("the wire's start is out of the arm's reach")
-    data.qpos[:] = ik.qpos
-    data.ctrl[ARM_ACTUATORS] = ik.qpos[scene.arm_qpos]
-    mujoco.mj_forward(model, data)
-    substeps = max(1, round(cfg.control_dt / model.opt.timestep))
+    follower = _Follower.at(scene, poses[0], MujocoRun(len(poses) - 1, 0.0, False, 0, cfg.near, 0.0, 0.0, 0.0, 0.0))
+    run, data = follower.run, follower.data
     ticks_per_move = max(1, round(cfg.move_s / cfg.control_dt))
-    run = MujocoRun(len(poses) - 1, 0.0, False, 0, cfg.near, 0.0, 0.0, 0.0, 0.0)
-
-    # A position servo with damping lags a moving target by about tau = (kv + joint damping) / kp;
-    # leading the command by tau times the reference velocity cancels most of that lag.
-    kp = model.actuator_gainprm[ARM_ACTUATORS, 0]
-    tau = (-model.actuator_biasprm[ARM_ACTUATORS, 2] + model.dof_damping[scene.arm_dofs]) / kp
-    previous = ik.qpos[scene.arm_qpos].copy()
-
-    def advance(position: np.ndarray, rotation: np.ndarray) -> None:
-        nonlocal previous
-        solve_ik(scene, ik, position, rotation, iterations=10)
-        reference = ik.qpos[scene.arm_qpos].copy()
-        data.ctrl[ARM_ACTUATORS] = reference + tau * (reference - previous) / cfg.control_dt
-        previous = reference
-        other = False
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-            if not data.ncon:
-                continue
-            contacts = data.contact
-            for g1, g2, dist in zip(contacts.geom1.tolist(), contacts.geom2.tolist(), contacts.dist.tolist()):
-                if g1 not in scene.wire and g2 not in scene.wire:
-                    continue
-                if g1 in scene.ring or g2 in scene.ring:
-                    run.touched_wire = run.touched_wire or dist < 0
-                else:
-                    other = other or dist < 0
-        run.other_wire_contacts += int(other)
-        run.min_clearance_m = min(run.min_clearance_m, clearance(scene, data))
-        actual = data.site_xmat[scene.site].reshape(3, 3)
-        run.worst_position_error_m = max(
-            run.worst_position_error_m, float(np.linalg.norm(data.site_xpos[scene.site] - position))
-        )
-        cos_yaw = float(np.clip(actual[:2, 0] @ rotation[:2, 0] / max(np.linalg.norm(actual[:2, 0]), 1e-12), -1, 1))
-        run.worst_yaw_error_deg = max(run.worst_yaw_error_deg, math.degrees(math.acos(cos_yaw)))
-
+    first = poses[0]
     start_pos, start_rot = scene.world(first[0], first[1]), target_rotation(first[2])
     for _ in range(max(1, round(cfg.settle_s / cfg.control_dt))):
-        advance(start_pos, start_rot)
+        follower.advance(start_pos, start_rot)
     run.centres.append(data.site_xpos[scene.site].round(5).tolist())
     for (r0, c0, y0), (r1, c1, y1) in zip(poses, poses[1:]):
         a, b = scene.world(r0, c0), scene.world(r1, c1)
         for tick in range(1, ticks_per_move + 1):
             t = tick / ticks_per_move
             s = 0.5 - 0.5 * math.cos(math.pi * t)  # smooth start and stop of each move
-            advance(a + s * (b - a), target_rotation(y0 + s * (y1 - y0)))
+            follower.advance(a + s * (b - a), target_rotation(y0 + s * (y1 - y0)))
         run.worst_waypoint_error_m = max(
             run.worst_waypoint_error_m, float(np.linalg.norm(data.site_xpos[scene.site] - b))
         )
@@ -344,6 +313,75 @@ def execute(
     run.final_qpos = data.qpos.tolist()
     run.wall_s = time.perf_counter() - began
     return run, scene
+
+
+@dataclass
+class _Follower:
+    """The arm following the ring's moving target: IK each control tick, the servos commanded ahead of their
+    lag, and the run's contact and tracking figures gathered on the way."""
+
+    scene: Scene
+    data: Any  # the simulation
+    ik: Any  # kinematics only: the IK's own state
+    run: MujocoRun
+    tau: np.ndarray  # s, each arm servo's lag
+    previous: np.ndarray  # the last reference (arm joints)
+    substeps: int  # simulation steps per control tick
+
+    @classmethod
+    def at(cls, scene: Scene, first: tuple[int, int, float], run: MujocoRun) -> _Follower:
+        """The robot at the first pose (by IK from home), the servos holding it."""
+        mujoco = _mujoco()
+        model = scene.model
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, scene.home)
+        ik = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, ik, scene.home)
+        if solve_ik(scene, ik, scene.world(first[0], first[1]), target_rotation(first[2]), iterations=200) > 1e-6:
+            raise SvhdescError("the wire's start is out of the arm's reach")
+        data.qpos[:] = ik.qpos
+        data.ctrl[ARM_ACTUATORS] = ik.qpos[scene.arm_qpos]
+        mujoco.mj_forward(model, data)
+        substeps = max(1, round(scene.config.control_dt / model.opt.timestep))
+        # A position servo with damping lags a moving target by about tau = (kv + joint damping) / kp;
+        # leading the command by tau times the reference velocity cancels most of that lag.
+        kp = model.actuator_gainprm[ARM_ACTUATORS, 0]
+        tau = (-model.actuator_biasprm[ARM_ACTUATORS, 2] + model.dof_damping[scene.arm_dofs]) / kp
+        return cls(scene, data, ik, run, tau, ik.qpos[scene.arm_qpos].copy(), substeps)
+
+    def advance(self, position: np.ndarray, rotation: np.ndarray) -> None:
+        """One control tick towards the ring pose (position, rotation)."""
+        scene, data, run = self.scene, self.data, self.run
+        solve_ik(scene, self.ik, position, rotation, iterations=10)
+        reference = self.ik.qpos[scene.arm_qpos].copy()
+        data.ctrl[ARM_ACTUATORS] = reference + self.tau * (reference - self.previous) / scene.config.control_dt
+        self.previous = reference
+        run.other_wire_contacts += int(self._step())
+        run.min_clearance_m = min(run.min_clearance_m, clearance(scene, data))
+        actual = data.site_xmat[scene.site].reshape(3, 3)
+        run.worst_position_error_m = max(
+            run.worst_position_error_m, float(np.linalg.norm(data.site_xpos[scene.site] - position))
+        )
+        cos_yaw = float(np.clip(actual[:2, 0] @ rotation[:2, 0] / max(np.linalg.norm(actual[:2, 0]), 1e-12), -1, 1))
+        run.worst_yaw_error_deg = max(run.worst_yaw_error_deg, math.degrees(math.acos(cos_yaw)))
+
+    def _step(self) -> bool:
+        """The tick's simulation steps; marks the ring penetrating the wire, and says whether anything else did."""
+        mujoco, scene, data = _mujoco(), self.scene, self.data
+        other = False
+        for _ in range(self.substeps):
+            mujoco.mj_step(scene.model, data)
+            if not data.ncon:
+                continue
+            contacts = data.contact
+            for g1, g2, dist in zip(contacts.geom1.tolist(), contacts.geom2.tolist(), contacts.dist.tolist()):
+                if g1 not in scene.wire and g2 not in scene.wire:
+                    continue
+                if g1 in scene.ring or g2 in scene.ring:
+                    self.run.touched_wire = self.run.touched_wire or dist < 0
+                else:
+                    other = other or dist < 0
+        return other
 
 
 def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] = (800, 600)) -> str:

@@ -57,6 +57,24 @@ def load_map(spec: str | Path) -> WireMap:
 
 
 def parse_map(text: str, source: str = "<map>") -> WireMap:
+    grid, lines = _grid(text, source)
+    rows, cols = len(grid), len(grid[0])
+    wire = {(r, c) for r in range(rows) for c in range(cols) if grid[r][c] != FREE}
+    starts = [(r, c) for r, c in wire if grid[r][c] == START]
+    ends = [(r, c) for r, c in wire if grid[r][c] == END]
+    if len(starts) != 1 or len(ends) != 1:
+        raise SvhdescError(f"{source}: needs exactly one S and one E (found {len(starts)} S, {len(ends)} E)")
+    path = _trace(wire, starts[0], ends[0], source, lines)
+    if len(path) != len(wire):
+        raise SvhdescError(f"{source}: {len(wire) - len(path)} wire pixel(s) are not on the line from S to E")
+    if len(path) < 3:
+        raise SvhdescError(f"{source}: the wire needs at least 3 pixels")
+    _check_clearance(path, source, lines)
+    return WireMap(Path(source).stem, rows, cols, tuple(path))
+
+
+def _grid(text: str, source: str) -> tuple[list[str], list[int]]:
+    """The map's rows (comments and blank lines left out, all as wide as the first) and their line numbers."""
     grid: list[str] = []
     lines: list[int] = []
     for number, line in enumerate(text.splitlines(), start=1):
@@ -72,35 +90,31 @@ def parse_map(text: str, source: str = "<map>") -> WireMap:
         lines.append(number)
     if not grid:
         raise SvhdescError(f"{source}: no map rows")
-    rows, cols = len(grid), len(grid[0])
-    wire = {(r, c) for r in range(rows) for c in range(cols) if grid[r][c] != FREE}
-    starts = [(r, c) for r, c in wire if grid[r][c] == START]
-    ends = [(r, c) for r, c in wire if grid[r][c] == END]
-    if len(starts) != 1 or len(ends) != 1:
-        raise SvhdescError(f"{source}: needs exactly one S and one E (found {len(starts)} S, {len(ends)} E)")
+    return grid, lines
+
+
+def _trace(
+    wire: set[tuple[int, int]], start: tuple[int, int], end: tuple[int, int], source: str, lines: list[int]
+) -> list[tuple[int, int]]:
+    """The line from S to E, once every wire pixel is known to have two wire neighbours (S and E one)."""
 
     def neighbours(p: tuple[int, int]) -> list[tuple[int, int]]:
         return [(p[0] + dr, p[1] + dc) for dr, dc in STEPS if (p[0] + dr, p[1] + dc) in wire]
 
     for p in sorted(wire):
-        want = 1 if p in (starts[0], ends[0]) else 2
+        want = 1 if p in (start, end) else 2
         if len(neighbours(p)) != want:
             raise SvhdescError(
                 f"{source}:{lines[p[0]]}: wire pixel at column {p[1] + 1} has {len(neighbours(p))} wire neighbours, "
                 f"needs {want} (the wire must be one 4-connected line from S to E)"
             )
-    path = [starts[0]]
+    path = [start]
     previous = None
-    while path[-1] != ends[0]:
+    while path[-1] != end:
         step = [n for n in neighbours(path[-1]) if n != previous]
         previous = path[-1]
         path.append(step[0])
-    if len(path) != len(wire):
-        raise SvhdescError(f"{source}: {len(wire) - len(path)} wire pixel(s) are not on the line from S to E")
-    if len(path) < 3:
-        raise SvhdescError(f"{source}: the wire needs at least 3 pixels")
-    _check_clearance(path, source, lines)
-    return WireMap(Path(source).stem, rows, cols, tuple(path))
+    return path
 
 
 def _check_clearance(path: list[tuple[int, int]], source: str, lines: list[int]) -> None:

@@ -108,6 +108,9 @@ def test_xarm_couples_its_own_joints_and_recomputes_invalid_inertias(
     assert float(link2.find("mass").get("value")) == 1.71  # the vendor's mass, a fitted distribution
     assert float(link2.find("inertia").get("ixx")) != 0.0248674
     assert float(root.find("link[@name='link1']/inertial/inertia").get("ixx")) == 0.00539427  # valid: kept
+    # A hand without prefix: its controller is `hand_controller` (the ROS node's name for it too).
+    controllers = yaml.safe_load((folder / "config" / "moveit_controllers.yaml").read_text())["controller_list"]
+    assert controllers[0]["name"] == "hand_controller" and controllers[0]["joints"] == ["drive_joint"]
 
 
 def test_example_validates(example: tuple[str, Path, Path], tmp_path: Path) -> None:

@@ -213,3 +213,16 @@ def test_a_check_that_could_not_run_still_fails() -> None:
     assert report.failed() == [] and [c.name for c in report.skipped] == ["limits"]
     report.checks.append(not_run("grasps", "the MJCF does not compile"))
     assert [c.name for c in report.failed()] == ["grasps"]
+
+
+def test_get_and_the_loaders_take_a_built_folder(tmp_path: Path) -> None:
+    import svhdesc
+
+    source = project(tmp_path)
+    (source / "mini.yaml").write_text(NO_HAND)
+    build(source / "mini.yaml", tmp_path / "out")
+    model = svhdesc.get(tmp_path / "out" / "mini")
+    assert model.name == "mini" and model.mjcf_path == (tmp_path / "out" / "mini" / "mini.xml").resolve()
+    assert svhdesc.load_mujoco(str(tmp_path / "out" / "mini")).nu == 2
+    with pytest.raises(KeyError, match="unknown variant"):
+        svhdesc.get(tmp_path / "out")  # a folder of variants is not a variant
