@@ -110,10 +110,12 @@ def add_keyframes(robot: Robot, assets: Assets, section: tuple[dict[str, Any], H
 
 def add_force_sensor(robot: Robot, assets: Assets, hand: Hand) -> Robot:
     """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
-    link = hand.link(hand.force_sensor or "")
+    if not hand.force_sensor:
+        return robot
+    link = hand.link(hand.force_sensor)
     tip = next((candidate for candidate in robot.links if candidate.name == link), None)
-    if not hand.force_sensor or tip is None:
-        return robot  # a missing link is the name check's to report (check_hand_names)
+    if tip is None:
+        return robot  # a missing link is the name check's to report (check_hand_names, after the processors)
     if not tip.collisions:
         raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: link {link} has no geometry")
     low, high = np.array(link_solid(tip, assets).bounds)
