@@ -341,14 +341,15 @@ def validate_command(
 ) -> None:
     """Validate built VARIANTS (all under OUT by default) or one --urdf/--mjcf pair.
 
-    Prints a table per variant (check, measured value, bound, status). Exit 0 when every check
-    passes, 1 when any fails or could not run (see --allow-missing-tools), 2 on bad input.
+    Prints a table per variant (check, measured value, bound, status). Checks that do not apply to a
+    robot (no hand, no couplings, no keyframes, ...) are skipped and listed with why. Exit 0 when every
+    check that applies passes, 1 when any fails or could not run (see --allow-missing-tools), 2 on bad input.
     Mass bounds come from the configuration declaring the model's variant: --config, else
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
     require_extra("validate", "'svhdesc validate'")
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
-    from svhdesc.validate.report import render_report, write_json
+    from svhdesc.validate.report import all_passed, render_report, write_json
 
     selected = select_checks(checks)
     if config_path is not None:  # an explicit config must be good, not silently skipped
@@ -383,7 +384,7 @@ def validate_command(
         for name, names in failed:
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
-    click.echo(f"all checks passed ({len(reports)} model(s))")
+    click.echo(all_passed(reports))
 
 
 @main.command("render")

@@ -232,7 +232,12 @@ def variants() -> list[str]:
     return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.xml").is_file()) if root.is_dir() else []
 
 
-def get(name: str) -> Model:
+def get(name: str | os.PathLike[str]) -> Model:
+    """A shipped variant by name, or any built variant by its folder (``<folder>/<folder name>.xml``)."""
+    folder = Path(name)
+    if folder.is_dir() and (folder / f"{folder.name}.xml").is_file():
+        return Model(folder.name, folder.resolve())
+    name = str(name)
     if name not in variants():
         raise KeyError(f"unknown variant {name!r}; available: {', '.join(variants())}")
     return Model(name, generated_dir() / name)
@@ -251,6 +256,8 @@ class Configuration:
         """The coupling spec's channels (the real driver's motors), by unprefixed name."""
         from svhdesc.compiler.settings.coupling import load_spec
 
+        if self.settings.coupling is None:
+            return {}  # configured without a coupling spec: no channels
         spec = load_spec(Path(self.config_dir) / str(self.settings.coupling))
         return {c.name: c for c in spec.channels}
 

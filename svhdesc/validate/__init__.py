@@ -2,7 +2,7 @@
 against real parsers and in simulation; draw a variant offscreen."""
 
 from svhdesc.validate.options import Options
-from svhdesc.validate.report import FAIL, NOT_RUN, PASS, Check, VariantReport
+from svhdesc.validate.report import FAIL, NOT_RUN, PASS, SKIPPED, Check, VariantReport
 from svhdesc.validate.runner import CHECK_NAMES, GROUPS, built_variants, select_checks, validate_files, validate_pair
 
 __all__ = [
@@ -11,6 +11,7 @@ __all__ = [
     "GROUPS",
     "NOT_RUN",
     "PASS",
+    "SKIPPED",
     "Check",
     "Options",
     "VariantReport",

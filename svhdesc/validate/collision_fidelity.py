@@ -20,7 +20,7 @@ from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
-from svhdesc.validate.report import Check, not_run, verdict
+from svhdesc.validate.report import Check, not_run, skipped, verdict
 from svhdesc.validate.vendor_geometry import REFINE_BELOW, vendor_links
 
 SWEEP_STEPS = 11  # poses per channel swept alone, ends included
@@ -121,7 +121,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     model = pair.model
     prefix = hand_prefix(model)
     if prefix is None:
-        return [not_run("collision_fidelity", "no SVH hand in the model", bound)]
+        return [skipped("collision_fidelity", "no SVH hand", bound)]
     folder = Path(options.vendor_meshes)
     if not (folder / "description" / "urdf" / "svh.urdf.xacro").is_file():
         # --allow-missing-tools lets it through (an installed wheel has no vendor folder beside it); never silent.

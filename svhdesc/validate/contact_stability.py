@@ -20,7 +20,7 @@ from svhdesc.compare import experiment as shared
 from svhdesc.model import scalar_joints
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
-from svhdesc.validate.report import Check, fmt, not_run, table, verdict
+from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
 
 MAD_BOUND = 1e-9  # rad
 FORCE_CV_BOUND = 0.02  # std / mean of the normal force
@@ -152,6 +152,8 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
     bound = f"MAD <= {MAD_BOUND:g} rad, F > 0, std/F <= {FORCE_CV_BOUND:.0%}"
     if pair.model is None:
         return [not_run("contact_stability", "the MJCF does not compile", bound)]
+    if shared.touch_site(pair.model) is None:
+        return [skipped("contact_stability", "no fingertip force sensor", bound)]
     try:
         run = run_experiment(pair)
     except shared.SetupError as exc:

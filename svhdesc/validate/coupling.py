@@ -8,7 +8,7 @@ from svhdesc.model import Coupling, actuated_joints, couplings
 from svhdesc.polynomial import image, linearise
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
-from svhdesc.validate.report import Check, fmt, not_run, verdict
+from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
 
 SPEC_TOL = 1e-9
 LIMIT_TOL = 1e-9
@@ -39,6 +39,8 @@ def check_coupling_spec(pair: ModelPair, options: Options) -> list[Check]:
     assert pair.urdf is not None
     equalities = couplings(pair.model)
     mimics = {j.name: j.mimic for j in pair.urdf.joints.values() if j.mimic is not None}
+    if not equalities and not mimics:
+        return [skipped("coupling_spec", "no couplings", bound)]
     problems, notes, worst, figures = [], [], 0.0, {}
     for eq in equalities:
         mimic = mimics.get(eq.joint)
@@ -111,6 +113,8 @@ def check_limits(pair: ModelPair, options: Options) -> list[Check]:
         return [missing]
     assert pair.urdf is not None
     model = pair.model
+    if not couplings(model):
+        return [skipped("limits", "no couplings", bound)]
     problems, worst, figures = [], 0.0, {}
     for eq in couplings(model):
         low, high = channel_range(model, eq.leader)

@@ -10,7 +10,7 @@ import numpy as np
 
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
-from svhdesc.validate.report import Check, fmt, not_run, verdict
+from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
 from svhdesc.validate.simulate import random_target_start
 
 DURATION = 10.0  # s
@@ -30,8 +30,10 @@ def check_load_limits(pair: ModelPair, options: Options) -> list[Check]:
     model = pair.model
     tips = [b for b in range(model.nbody) if model.body(b).name.endswith(TIP_SUFFIXES)]
     limited = [j for j in range(model.njnt) if model.jnt_limited[j]]
-    if not tips or not limited:
-        return [not_run("load_limits", "no fingertip bodies or no limited joints", bound)]
+    if not tips:
+        return [skipped("load_limits", "no SVH fingertips", bound)]
+    if not limited:
+        return [skipped("load_limits", "no limited joints", bound)]
     data, rng, low, high = random_target_start(model, options.seed)
     adr = np.array([model.jnt_qposadr[j] for j in limited], dtype=int)
     lower, upper = model.jnt_range[limited].T

@@ -40,14 +40,14 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
     prefix = configuration.settings.hand.prefix
     problems, parts, figures = [], [], {}
     for budget in settings.budgets:
-        pattern = str(budget["links"]).format(hand=prefix)
+        pattern = str(budget["links"]).format(hand=prefix or "")
         total = sum(m for n, m in masses.items() if fnmatch.fnmatchcase(n, pattern))
         target = float(budget["total"])
         figures[pattern] = {"total_kg": total, "budget_kg": target}
         parts.append(f"{pattern} {total:.4f}/{target:g} kg")
         if abs(total - target) > BUDGET_TOL * target:
             problems.append(f"links {pattern} weigh {total:.6g} kg, budget {target:g} kg")
-    explicit = {**settings.links, **{k: v["mass"] for k, v in settings.inertials.items()}}
+    explicit = {**settings.links, **{k: v["mass"] for k, v in settings.explicit_inertials.items()}}
     present = {name: float(m) for name, m in explicit.items() if name in pair.urdf.links}
     if present:
         got = sum(masses.get(n, 0.0) for n in present)

@@ -18,7 +18,7 @@ from svhdesc.polynomial import polyval
 from svhdesc.validate.collision_fidelity import hand_prefix
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
-from svhdesc.validate.report import Check, fmt, not_run, table, verdict
+from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
 MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s)
@@ -63,7 +63,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     model = pair.model
     prefix = hand_prefix(model)
     if prefix is None:
-        return [not_run("range_of_motion", "no SVH hand in the model", bound)]
+        return [skipped("range_of_motion", "no SVH hand", bound)]
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
     strokes = _Strokes(
         model,

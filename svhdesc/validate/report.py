@@ -10,6 +10,8 @@ from typing import Any
 PASS = "pass"
 FAIL = "fail"
 NOT_RUN = "not run"
+# The check does not apply to this robot (no hand, no couplings, no keyframes, ...): listed with why, never a failure.
+SKIPPED = "skipped"
 
 
 @dataclass
@@ -34,7 +36,7 @@ class Check:
 
     def acceptable(self, allow_missing_tools: bool) -> bool:
         tolerated = allow_missing_tools and self.status == NOT_RUN and self.missing_tool is not None
-        return self.passed or tolerated
+        return self.passed or self.status == SKIPPED or tolerated
 
 
 def verdict(ok: bool) -> str:
@@ -43,6 +45,11 @@ def verdict(ok: bool) -> str:
 
 def not_run(name: str, reason: str, bound: str = "", missing_tool: str | None = None) -> Check:
     return Check(name, NOT_RUN, "-", bound, reason, missing_tool=missing_tool)
+
+
+def skipped(name: str, reason: str, bound: str = "") -> Check:
+    """A check that does not apply to this robot, and why (e.g. "no couplings")."""
+    return Check(name, SKIPPED, "-", bound, reason)
 
 
 def summary(problems: list[str], fallback: str, limit: int = 6) -> str:
@@ -74,6 +81,10 @@ class VariantReport:
 
     def failed(self, allow_missing_tools: bool = False) -> list[Check]:
         return [c for c in self.checks if not c.acceptable(allow_missing_tools)]
+
+    @property
+    def skipped(self) -> list[Check]:
+        return [c for c in self.checks if c.status == SKIPPED]
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -107,16 +118,27 @@ def table(rows: list[list[str]], header: list[str]) -> str:
 
 def render_report(report: VariantReport) -> str:
     # Upper case for what needs attention, so a failure stands out in a long table.
-    rows = [[c.name, c.value, c.bound, c.status if c.passed else c.status.upper()] for c in report.checks]
+    rows = [
+        [c.name, c.value, c.bound, c.status if c.status in (PASS, SKIPPED) else c.status.upper()] for c in report.checks
+    ]
     text = [f"== {report.name}  ({report.mjcf}, {report.urdf})", table(rows, ["check", "measured", "bound", "status"])]
     for check in report.checks:
-        if check.status != PASS and check.detail:
+        if check.status not in (PASS, SKIPPED) and check.detail:
             text.append(f"  {check.name}: {check.detail}")
+    if report.skipped:
+        text.append("  skipped (not applicable): " + "; ".join(f"{c.name} ({c.detail})" for c in report.skipped))
     for check in report.checks:
         if check.table:
             text.append(f"\n{check.name}:\n{check.table}")
     text.append(f"({report.runtime_s:.1f} s)")
     return "\n".join(text)
+
+
+def all_passed(reports: list[VariantReport]) -> str:
+    """The closing line of a run whose every applicable check passed, counting those skipped."""
+    skipped = sum(len(r.skipped) for r in reports)
+    applicable = f"; {skipped} skipped as not applicable, listed above" if skipped else ""
+    return f"all checks passed ({len(reports)} model(s){applicable})"
 
 
 def write_json(reports: list[VariantReport], path: Any, allow_missing_tools: bool) -> None:

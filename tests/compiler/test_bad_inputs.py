@@ -263,7 +263,23 @@ CONFIG_CASES: list[Case] = [
     ),
     ("hand_scalar", config("scene: {floor_z: -0.1}", "scene: 5"), "'scene' must be a mapping"),
     ("noslip_fraction", config("timestep: 0.001", "timestep: 0.001\n  noslip_iterations: 1.5"), "noslip_iterations"),
-    ("hand_prefix_missing", config("  prefix: right_hand\n", ""), "'hand.prefix' is required"),
+    # The prefix is optional (a robot without a hand has none), but {hand} in a pattern needs it.
+    (
+        "hand_prefix_missing",
+        config("  prefix: right_hand\n", ""),
+        "mini.yaml:10: mass.budgets: '{hand}_*' names {hand}, but hand.prefix is not set",
+    ),
+    ("recompute_typo", config("  inertials: {}", "  inertials: recompute_all"), "mass.inertials must be a mapping"),
+    (
+        "recompute_no_source_inertial",
+        config("  inertials: {}", "  inertials: {right_hand_t: recompute}"),
+        "mini.yaml:13: mass.inertials.right_hand_t: recompute: link right_hand_t has no inertial in its source",
+    ),
+    (
+        "xacro_python_missing",
+        config("xacro: mini.xacro", "xacro: python:no_such_module_h3/a.urdf"),
+        "no_such_module_h3",
+    ),
     ("coupling_missing", config("coupling: coupling.yaml", "coupling: absent.yaml"), "absent.yaml"),
     ("unknown_top_key", config("collision: {mode: hull}", "collision: {mode: hull}\ncolision: {}"), "colision"),
     ("variant_unknown_key", config("args: {side: right}", "args: {side: right}\n    colour: red"), "colour"),

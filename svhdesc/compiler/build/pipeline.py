@@ -130,12 +130,13 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     packages = {**variant.packages(), **extra_packages}
     source = read_source(variant, packages, timings)
     settings = variant.settings
+    spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
-        spec = load_spec(variant.coupling_path)
+        spec = load_spec(spec_path) if spec_path is not None else None
     coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen")
     rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
-    inputs = (*source.inputs, variant.coupling_path)
+    inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))
     return Plan(variant, source.robot, packages, inputs, coupled, Meshes(rules, hulls), jobs)
 
 
@@ -181,7 +182,8 @@ def _check_mass_names(config: Config, plans: list[Plan], extra_packages: dict[st
 
     for each in plans:
         mass = each.settings.mass
-        for section, named in (("links", mass.links), ("inertials", mass.inertials)):
+        explicit = mass.inertials if isinstance(mass.inertials, dict) else {}  # `inertials: recompute` names none
+        for section, named in (("links", mass.links), ("inertials", explicit)):
             for name in named:
                 at = where(named, str(config.path), name)
                 # Only names written here: a base's (extends) shared names may serve variants not declared here.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import importlib.util
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -26,11 +27,34 @@ class Variant:
     config_dir: Path
 
     @property
-    def coupling_path(self) -> Path:
-        return (self.config_dir / self.settings.coupling).resolve()
+    def coupling_path(self) -> Path | None:
+        """The coupling spec; None for a robot without couplings."""
+        return (self.config_dir / self.settings.coupling).resolve() if self.settings.coupling else None
 
     def packages(self) -> dict[str, Path]:
-        return {name: (self.config_dir / d).resolve() for name, d in self.settings.packages.items()}
+        packages = self.settings.packages
+        return {
+            name: resolve_path(d, self.config_dir, where(packages, str(self.config_dir), name))
+            for name, d in packages.items()
+        }
+
+
+PYTHON = "python:"
+
+
+def resolve_path(value: str, config_dir: Path, at: str) -> Path:
+    """A path written in a config: relative to the config's folder, or ``python:MODULE/SUB``, a folder inside an
+    installed Python package, found where this Python has it (a wheel's data: never copied into a project)."""
+    if not value.startswith(PYTHON):
+        return (config_dir / value).resolve()
+    module, _, sub = value.removeprefix(PYTHON).partition("/")
+    try:
+        spec = importlib.util.find_spec(module) if module else None  # locates a top-level package without importing it
+    except (ImportError, ValueError):
+        spec = None
+    if spec is None or not spec.submodule_search_locations:
+        raise SvhdescError(f"{at}: {value}: no installed Python package {module!r} (pip install it)")
+    return (Path(next(iter(spec.submodule_search_locations))) / sub).resolve()
 
 
 @dataclass(frozen=True)
@@ -91,7 +115,9 @@ def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = N
             base[key] = str((base_path.parent / base[key]).resolve())
     if "packages" in base:
         packages = base["packages"]
-        base["packages"] = Node({k: str((base_path.parent / v).resolve()) for k, v in packages.items()})
+        base["packages"] = Node(
+            {k: v if v.startswith(PYTHON) else str((base_path.parent / v).resolve()) for k, v in packages.items()}
+        )
         base["packages"].lines = dict(packages.lines)
     return _merge(base, data)
 
@@ -125,7 +151,7 @@ def load_config(path: Path) -> Config:
         args = entry.get("args") or {}
         if not isinstance(args, dict) or any(isinstance(v, (dict, list)) for v in args.values()):
             raise SvhdescError(f"{where(entry, at, 'args')}: variant {name}: 'args' must map names to values")
-        xacro_path = (path.parent / xacro).resolve()
+        xacro_path = resolve_path(xacro, path.parent, f"{where(entry, at, 'xacro')}: variant {name}: 'xacro'")
         args = {str(k): str(v) for k, v in args.items()}
         variants[str(name)] = Variant(str(name), xacro_path, args, settings, path.parent.resolve())
     return Config(path, variants, tuple(files))

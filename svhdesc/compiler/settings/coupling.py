@@ -18,7 +18,16 @@ MAX_ORDER = 4
 LIMIT_TOL = 1e-9
 
 
-__all__ = ["CouplingSpec", "CouplingWarning", "apply_spec", "image", "linearise", "load_spec", "polyval", "propagate"]
+__all__ = [
+    "CouplingSpec",
+    "CouplingWarning",
+    "apply_spec",
+    "image",
+    "linearise",
+    "load_spec",
+    "polyval",
+    "propagate",
+]
 
 
 class CouplingWarning(UserWarning):
@@ -33,8 +42,25 @@ class CouplingSpec:
     lines: dict[str, str]  # unprefixed joint or channel -> file:line
 
 
+CHANNEL_KEYS = {"name", "range", "effort", "velocity", "tip_force"}
+COUPLING_KEYS = {"joint", "follows", "poly"}
+
+
 def load_spec(path: Path) -> CouplingSpec:
     data = load_yaml(path)
+    _check_document(data, path)
+    lines: dict[str, str] = {}  # channel or coupled joint -> file:line, filled as each is read
+    channels_at, couplings_at = where(data, str(path), "channels"), where(data, str(path), "couplings")
+    channels = [_channel(item, channels_at, lines) for item in data["channels"]]
+    channel_names = {c.name for c in channels}
+    couplings: list[Coupling] = []
+    for item in data.get("couplings") or []:
+        couplings.append(_coupling(item, couplings_at, channel_names, couplings, lines))
+    _check_graph(couplings, channel_names, lines)
+    return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _check_document(data: object, path: Path) -> None:
     if not isinstance(data, dict) or not isinstance(data.get("channels"), list):
         raise SvhdescError(f"{where(data, str(path))}: coupling spec needs a 'channels' list")
     unknown = [str(k) for k in data if k not in {"channels", "couplings"}]
@@ -42,60 +68,59 @@ def load_spec(path: Path) -> CouplingSpec:
         raise SvhdescError(
             f"{where(data, str(path), unknown[0])}: unknown key(s) {sorted(unknown)} in the coupling spec"
         )
-    couplings_data = data.get("couplings")
-    if couplings_data is not None and not isinstance(couplings_data, list):
+    if data.get("couplings") is not None and not isinstance(data["couplings"], list):
         raise SvhdescError(f"{where(data, str(path), 'couplings')}: 'couplings' must be a list")
-    channels, couplings, lines = [], [], {}
-    for item in data["channels"]:
-        at = where(item, where(data, str(path), "channels"))
-        if not isinstance(item, dict) or "name" not in item:
-            raise SvhdescError(f"{at}: channel needs a name")
-        unknown = set(item) - {"name", "range", "effort", "velocity", "tip_force"}
-        if unknown:
-            raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(map(str, unknown))}")
-        name = text(item["name"], f"{at}: channel name")
-        if name in lines:
-            raise SvhdescError(f"{at}: channel {name} declared twice (first at {lines[name]})")
-        missing = [key for key in ("range", "effort", "velocity") if key not in item]
-        if missing:
-            raise SvhdescError(f"{at}: channel {name} needs {', '.join(missing)}")
-        lower, upper = numbers((2,))(item["range"], f"{where(item, at, 'range')}: channel {name}: range")
-        if not lower < upper:
-            raise SvhdescError(f"{where(item, at, 'range')}: channel {name}: empty range [{lower}, {upper}]")
-        effort = number(0.0, 1e4, strict=True)(item["effort"], f"{where(item, at, 'effort')}: channel {name}: effort")
-        velocity = number(0.0, 1e4, strict=True)(
-            item["velocity"], f"{where(item, at, 'velocity')}: channel {name}: velocity"
-        )
-        tip_force = None
-        if item.get("tip_force") is not None:
-            tip_force = number(0.0, 1e4, strict=True)(
-                item["tip_force"], f"{where(item, at, 'tip_force')}: channel {name}: tip_force"
-            )
-        channels.append(Channel(name, name, lower, upper, effort, velocity, tip_force))
-        lines[name] = at
-    channel_names = {c.name for c in channels}
-    for item in couplings_data or []:
-        at = where(item, where(data, str(path), "couplings"))
-        if not isinstance(item, dict) or not {"joint", "follows", "poly"} <= set(item):
-            raise SvhdescError(f"{at}: coupling needs joint, follows and poly")
-        unknown = set(item) - {"joint", "follows", "poly"}
-        if unknown:
-            raise SvhdescError(f"{at}: coupling: unknown key(s) {sorted(map(str, unknown))}")
-        joint = text(item["joint"], f"{at}: coupled joint name")
-        leader = text(item["follows"], f"{at}: coupled joint {joint}: follows")
-        coeffs = tuple(numbers()(item["poly"], f"{where(item, at, 'poly')}: coupled joint {joint}: poly"))
-        if not 1 <= len(coeffs) <= MAX_ORDER + 1:
-            raise SvhdescError(f"{at}: coupled joint {joint}: poly has {len(coeffs)} terms (1 to 5 allowed)")
-        if joint in channel_names:
-            raise SvhdescError(f"{at}: joint {joint} is a channel and cannot also follow {leader}: driven twice")
-        if joint in lines:
-            first = next(c for c in couplings if c.joint == joint)
-            problem = "duplicated" if first.channel == leader else f"driven twice (also by {first.channel})"
-            raise SvhdescError(f"{at}: coupled joint {joint} {problem} (first at {lines[joint]})")
-        couplings.append(Coupling(joint, leader, coeffs))
-        lines[joint] = at
-    _check_graph(couplings, channel_names, lines)
-    return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _channel(item: object, base: str, lines: dict[str, str]) -> Channel:
+    at = where(item, base)
+    if not isinstance(item, dict) or "name" not in item:
+        raise SvhdescError(f"{at}: channel needs a name")
+    unknown = set(item) - CHANNEL_KEYS
+    if unknown:
+        raise SvhdescError(f"{at}: channel {item['name']}: unknown key(s) {sorted(map(str, unknown))}")
+    name = text(item["name"], f"{at}: channel name")
+    if name in lines:
+        raise SvhdescError(f"{at}: channel {name} declared twice (first at {lines[name]})")
+    missing = [key for key in ("range", "effort", "velocity") if key not in item]
+    if missing:
+        raise SvhdescError(f"{at}: channel {name} needs {', '.join(missing)}")
+    lower, upper = numbers((2,))(item["range"], f"{where(item, at, 'range')}: channel {name}: range")
+    if not lower < upper:
+        raise SvhdescError(f"{where(item, at, 'range')}: channel {name}: empty range [{lower}, {upper}]")
+
+    def positive(key: str) -> float:
+        return number(0.0, 1e4, strict=True)(item[key], f"{where(item, at, key)}: channel {name}: {key}")
+
+    effort, velocity = positive("effort"), positive("velocity")
+    tip_force = positive("tip_force") if item.get("tip_force") is not None else None
+    channel = Channel(name, name, lower, upper, effort, velocity, tip_force)
+    lines[name] = at
+    return channel
+
+
+def _coupling(
+    item: object, base: str, channel_names: set[str], earlier: list[Coupling], lines: dict[str, str]
+) -> Coupling:
+    at = where(item, base)
+    if not isinstance(item, dict) or not COUPLING_KEYS <= set(item):
+        raise SvhdescError(f"{at}: coupling needs joint, follows and poly")
+    unknown = set(item) - COUPLING_KEYS
+    if unknown:
+        raise SvhdescError(f"{at}: coupling: unknown key(s) {sorted(map(str, unknown))}")
+    joint = text(item["joint"], f"{at}: coupled joint name")
+    leader = text(item["follows"], f"{at}: coupled joint {joint}: follows")
+    coeffs = tuple(numbers()(item["poly"], f"{where(item, at, 'poly')}: coupled joint {joint}: poly"))
+    if not 1 <= len(coeffs) <= MAX_ORDER + 1:
+        raise SvhdescError(f"{at}: coupled joint {joint}: poly has {len(coeffs)} terms (1 to 5 allowed)")
+    if joint in channel_names:
+        raise SvhdescError(f"{at}: joint {joint} is a channel and cannot also follow {leader}: driven twice")
+    if joint in lines:
+        first = next(c for c in earlier if c.joint == joint)
+        problem = "duplicated" if first.channel == leader else f"driven twice (also by {first.channel})"
+        raise SvhdescError(f"{at}: coupled joint {joint} {problem} (first at {lines[joint]})")
+    lines[joint] = at
+    return Coupling(joint, leader, coeffs)
 
 
 def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str, str]) -> None:
@@ -120,12 +145,17 @@ def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str,
         )
 
 
-def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str, *, widen_limits: bool = False) -> Robot:
-    """Prefix the spec's names, check it against the robot, and set every coupled joint's mimic."""
+def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str | None, *, widen_limits: bool = False) -> Robot:
+    """Find the spec's joints in the robot, check the spec against it, and set every coupled joint's mimic.
+
+    A spec name is the robot's joint ``<prefix>_<name>`` when the robot has that joint, else ``name`` itself:
+    the prefix is a convenience for a hand mounted under one, not a requirement.
+    """
     joints = {j.name: j for j in robot.joints}
 
     def full(name: str) -> str:
-        return f"{prefix}_{name}" if prefix else name
+        prefixed = f"{prefix}_{name}" if prefix else name
+        return name if prefixed not in joints and name in joints else prefixed
 
     channels = []
     for channel in spec.channels:

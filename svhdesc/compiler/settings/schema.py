@@ -197,9 +197,22 @@ def _config_fields(cls: type) -> list[Any]:
     return [f for f in fields(cls) if not f.metadata.get("located")]
 
 
+def expand_hand(pattern: str, prefix: str | None, at: str) -> str:
+    """``pattern`` with ``{hand}`` replaced by the hand's prefix; a robot without one cannot use it."""
+    if "{hand}" in pattern and not prefix:
+        raise SvhdescError(f"{at}: {pattern!r} names {{hand}}, but hand.prefix is not set")
+    return pattern.format(hand=prefix or "")
+
+
 @dataclass(frozen=True)
 class Hand(Located):
-    prefix: str = _field(None, text, required=True)
+    """The hand's drives and parts; every key is optional (a robot without a hand leaves the section out).
+
+    ``prefix`` is a convenience: with it, fingertips, the force sensor and the coupling spec's joints are
+    ``<prefix>_<name>``; without it, they are the robot's own names.
+    """
+
+    prefix: str | None = _field(None, optional(text))
     fingertips: list[str] = _field([], names)
     force_sensor: str | None = _field(None, optional(text))
     joint_damping: float = _field(0.0, number(0.0))  # channel joints (the drives)
@@ -210,6 +223,10 @@ class Hand(Located):
     dampratio: float = _field(1.0, number(0.0, 100.0))
     limit_margin: float = _field(0.0, number(0.0, 0.1))
     limit_solref: list[float] | None = _field(None, optional(solref))
+
+    def link(self, name: str) -> str:
+        """A hand part's link (or joint) name: ``<prefix>_<name>``, or ``name`` itself without a prefix."""
+        return f"{self.prefix}_{name}" if self.prefix else name
 
 
 @dataclass(frozen=True)
@@ -253,11 +270,41 @@ def _budgets(value: Any, at: str) -> list[Node]:
     return [_budget(item, f"{where(item, at.split(': ')[0])}: {_key(at)}[{i}]") for i, item in enumerate(value)]
 
 
+RECOMPUTE = "recompute"
+
+
+def _inertials(value: Any, at: str) -> str | Node:
+    """``recompute`` (each link whose source inertial is invalid), or per link ``recompute`` or {mass, com, inertia}."""
+    if value == RECOMPUTE:
+        return RECOMPUTE
+    return mapping_of(lambda item, label: RECOMPUTE if item == RECOMPUTE else _inertial(item, label))(value, at)
+
+
 @dataclass(frozen=True)
 class Mass(Located):
     budgets: list[Any] = _field([], _budgets)
     links: dict[str, float] = _field({}, mapping_of(number(0.0, 1e4, strict=True)))
-    inertials: dict[str, Any] = _field({}, mapping_of(_inertial))
+    # {link: {mass, com, inertia}} wins over everything. `recompute` replaces third-party inertials with the
+    # cylinder fitted to the link's geometry, at the link's mass: for all links whose source inertial is invalid
+    # (`inertials: recompute`), or for one link whatever its source says (`inertials: {link: recompute}`).
+    inertials: dict[str, Any] | str = _field({}, _inertials)
+
+    @property
+    def explicit_inertials(self) -> dict[str, Any]:
+        """Links given a full inertial: {link: {mass, com, inertia}}."""
+        if isinstance(self.inertials, str):
+            return {}
+        return {name: value for name, value in self.inertials.items() if value != RECOMPUTE}
+
+    @property
+    def recompute_all(self) -> bool:
+        return self.inertials == RECOMPUTE
+
+    @property
+    def recompute_links(self) -> set[str]:
+        if isinstance(self.inertials, str):
+            return set()
+        return {name for name, value in self.inertials.items() if value == RECOMPUTE}
 
 
 @dataclass(frozen=True)
@@ -339,7 +386,7 @@ def _grasp(value: Any, at: str) -> Node:
 
 @dataclass(frozen=True)
 class Settings(Located):
-    coupling: str = _field(None, text, required=True)
+    coupling: str | None = _field(None, optional(text))  # the coupling spec; none for a robot without couplings
     coupled_limits: str = _field("error", choice("error", "widen"))
     packages: dict[str, str] = _field({}, mapping_of(text))
     hand: Hand = _sub(Hand)
@@ -393,4 +440,25 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
 
 def normalise(settings: dict[str, Any], at: str) -> Settings:
     """Check every value of one variant's merged settings; fill the defaults."""
-    return _section(Settings, settings, f"{at}: ")[0]
+    typed = _section(Settings, settings, f"{at}: ")[0]
+    if not typed.hand.prefix:
+        _check_no_hand_patterns(typed)
+    return typed
+
+
+def _check_no_hand_patterns(settings: Settings) -> None:
+    """Without hand.prefix, a pattern naming ``{hand}`` has nothing to stand for: refuse it where it is written.
+
+    (Malformed collision entries are left to the collision rules, which name them.)
+    """
+    for budget in settings.mass.budgets:
+        expand_hand(str(budget["links"]), None, f"{budget.lines.get('links', budget.where)}: mass.budgets")
+    collision, at = settings.collision, settings.at("collision")
+    classes = collision.get("classes")
+    for entry in classes if isinstance(classes, list) else []:
+        links = entry.get("links") if isinstance(entry, dict) else None
+        for pattern in links if isinstance(links, list) else []:
+            expand_hand(str(pattern), None, f"{where(entry, at)}: collision.classes")
+    overrides = collision.get("links")
+    for name in overrides if isinstance(overrides, dict) else {}:
+        expand_hand(str(name), None, f"{where(overrides, at, name)}: collision.links")

@@ -83,16 +83,18 @@ def _solref(values: list[float] | None) -> tuple[float, float] | None:
 
 
 def add_keyframes(robot: Robot, assets: Assets, section: tuple[dict[str, Any], Hand, Arm]) -> Robot:
-    """Keyframes name hand channels without prefix; arm joints the variant lacks are left out."""
-    keyframes, hand, arm = section
-    hand_prefix, optional = hand.prefix, set(arm.joints)
-    channel_names = {c.name for c in robot.channels}
+    """Keyframes name hand channels by channel name (a joint's own name otherwise); arm joints the variant
+    lacks are left out."""
+    keyframes, _, arm = section
+    optional = set(arm.joints)
+    channel_joint = {c.name: c.joint for c in robot.channels}
+    channel_names = set(channel_joint)
     movable = {j.name for j in robot.joints if j.movable}
     frames = []
     for name, values in keyframes.items():
         positions = {}
         for key, value in (values or {}).items():
-            joint = f"{hand_prefix}_{key}" if key in channel_names else key
+            joint = channel_joint.get(key, key)
             if joint in movable:
                 if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
                     raise SvhdescError(
@@ -110,7 +112,7 @@ def add_force_sensor(robot: Robot, assets: Assets, hand: Hand) -> Robot:
     """Index fingertip force sensing: the site sits at the centre of the tip's collision solid."""
     if not hand.force_sensor:
         return robot
-    link = f"{hand.prefix}_{hand.force_sensor}"
+    link = hand.link(hand.force_sensor)
     tip = next((candidate for candidate in robot.links if candidate.name == link), None)
     if tip is None:
         return robot  # a missing link is the name check's to report (check_hand_names, after the processors)

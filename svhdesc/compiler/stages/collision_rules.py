@@ -46,7 +46,7 @@ def _rule(entry: dict[str, Any], base: CollisionRule, global_params: dict[str, A
 
 
 def _classes(
-    collision: dict[str, Any], at: str, default: CollisionRule, global_params: dict[str, Any], hand_prefix: str
+    collision: dict[str, Any], at: str, default: CollisionRule, global_params: dict[str, Any], hand_prefix: str | None
 ) -> list[tuple[list[str], CollisionRule]]:
     """(link patterns, rule) of each entry of ``collision.classes``, in order."""
     classes = []
@@ -57,12 +57,12 @@ def _classes(
         label = f"{where(entry, where(collision, at, 'classes'))}: collision.classes[{index}]"
         if not isinstance(entry, dict) or not isinstance(entry.get("links", []), list):
             raise SvhdescError(f"{label}: must be a mapping with a list of 'links'")
-        patterns = [str(p).format(hand=hand_prefix) for p in entry.get("links", [])]
+        patterns = [str(p).format(hand=hand_prefix or "") for p in entry.get("links", [])]
         classes.append((patterns, _rule(entry, default, global_params, label)))
     return classes
 
 
-def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -> dict[str, CollisionRule]:
+def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str | None) -> dict[str, CollisionRule]:
     """Rule per link with collision geometry: first matching class, then per-link overrides."""
     at = where(collision, "collision")
     unknown = set(collision) - {"mode", "primitive", "params", "classes", "links"}
@@ -83,7 +83,7 @@ def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -
         raise SvhdescError(f"{where(collision, at, 'links')}: collision.links must map links to rules")
     names = {link.name for link in robot.links}
     for name in overrides:
-        if str(name).format(hand=hand_prefix) not in names and "{hand}" not in str(name):
+        if str(name).format(hand=hand_prefix or "") not in names and "{hand}" not in str(name):
             raise SvhdescError(f"{where(overrides, at, name)}: collision.links: unknown link {name!r}")
     rules = {}
     for link in robot.links:
@@ -94,7 +94,7 @@ def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str) -
             _rule({}, default, global_params, f"{at}: collision"),
         )
         for name, entry in overrides.items():
-            if str(name).format(hand=hand_prefix) == link.name:
+            if str(name).format(hand=hand_prefix or "") == link.name:
                 rule = _rule(entry, rule, {}, f"{where(overrides, at, name)}: collision.links.{name}")
         rules[link.name] = rule
     return rules

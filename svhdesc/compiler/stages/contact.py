@@ -12,7 +12,7 @@ from svhdesc.ir import Contact, Robot
 
 def fingertip_links(robot: Robot, hand: Hand) -> list[str]:
     names = {link.name for link in robot.links}
-    return [f"{hand.prefix}_{tip}" for tip in hand.fingertips if f"{hand.prefix}_{tip}" in names]
+    return [hand.link(tip) for tip in hand.fingertips if hand.link(tip) in names]
 
 
 def add_contact(robot: Robot, assets: Assets, section: tuple[settings.Contact, Hand]) -> Robot:

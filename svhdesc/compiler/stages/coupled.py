@@ -15,12 +15,14 @@ from svhdesc.ir import Robot
 class Coupled:
     """What coupling reads: the loaded spec (an input of the plan), the hand's prefix, ``coupled_limits``."""
 
-    spec: CouplingSpec
-    prefix: str
+    spec: CouplingSpec | None  # None: a robot without couplings
+    prefix: str | None
     widen_limits: bool
 
 
 def couple(robot: Robot, assets: Assets, section: Coupled) -> Robot:
+    if section.spec is None:
+        return robot
     robot = apply_spec(robot, section.spec, section.prefix, widen_limits=section.widen_limits)
     for problem in mimic_order_problems(robot):
         # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.

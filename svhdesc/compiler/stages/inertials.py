@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import fnmatch
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
 import trimesh
 
 from svhdesc.compiler import exact
-from svhdesc.compiler.settings.schema import Hand, Mass
+from svhdesc.compiler.settings.schema import Hand, Mass, expand_hand
 from svhdesc.compiler.source.meshes import principal_cylinder
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.errors import SvhdescError
@@ -53,46 +54,46 @@ def cylinder_inertial(solid: trimesh.Trimesh, mass: float) -> Inertial:
     return Inertial(float(mass), tuple(float(c) for c in centre), tuple(float(x) for x in values))  # type: ignore[arg-type]
 
 
-def check_inertial(inertial: Inertial, where: str) -> None:
-    """Positive mass, positive definite tensor, triangle inequality of the principal moments."""
+def inertial_problem(inertial: Inertial) -> str | None:
+    """What makes an inertial unphysical: a mass <= 0, a tensor not positive definite, or principal moments
+    that violate the triangle inequality; None for a valid one."""
     ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     moments = np.linalg.eigvalsh(tensor)
     if inertial.mass <= 0 or moments[0] <= 0:
-        raise SvhdescError(f"{where}: inertia not positive definite (mass {inertial.mass}, moments {moments})")
+        return f"inertia not positive definite (mass {inertial.mass}, moments {moments})"
     a, b, c = moments
     if a + b < c * (1 - 1e-9):
-        raise SvhdescError(f"{where}: principal moments {moments} violate the triangle inequality")
+        return f"principal moments {moments} violate the triangle inequality"
+    return None
+
+
+def check_inertial(inertial: Inertial, where: str) -> None:
+    """Positive mass, positive definite tensor, triangle inequality of the principal moments."""
+    problem = inertial_problem(inertial)
+    if problem is not None:
+        raise SvhdescError(f"{where}: {problem}")
+
+
+class InertialWarning(UserWarning):
+    """A source inertial was replaced by one computed from the link's geometry."""
 
 
 def add_inertials(robot: Robot, assets: Assets, section: tuple[Mass, Hand]) -> Robot:
     mass, hand = section
     hand_prefix = hand.prefix
-    explicit_full = mass.inertials
-    explicit_mass = dict(mass.links)
+    explicit_full = mass.explicit_inertials
     solids = {link.name: link_solid(link, assets) for link in robot.links if link.has_geometry}
-    masses: dict[str, float] = {n: float(m) for n, m in explicit_mass.items() if n in solids}
+    masses = _masses(robot, solids, mass, set(explicit_full), hand_prefix)
     tiny = needs_tiny_mass(robot) - set(explicit_full)
-    masses.update({name: TINY_MASS for name in tiny})
-    for budget in mass.budgets:
-        pattern = str(budget["links"]).format(hand=hand_prefix)
-        members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
-        fixed = sum(masses.get(n, 0.0) for n in members)
-        free = [n for n in members if n not in masses]
-        remaining = float(budget["total"]) - fixed
-        if members and (remaining <= 0 or not free):
-            raise SvhdescError(f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}")
-        volumes = {n: abs(exact.mass_properties(solids[n].vertices, solids[n].faces)[0]) for n in free}
-        volume = math.fsum(volumes[n] for n in free)
-        for name in free:
-            masses[name] = remaining * volumes[name] / volume
+    _check_recompute_names(robot, mass)
     links = []
     for link in robot.links:
         if link.name in explicit_full:
             spec = explicit_full[link.name]
             inertial = Inertial(float(spec["mass"]), tuple(spec["com"]), tuple(spec["inertia"]))  # type: ignore[arg-type]
         elif link.inertial is not None:
-            inertial = link.inertial  # explicit in the source
+            inertial = _from_source(link, solids, mass)  # explicit in the source, or recomputed
         elif link.name in solids:
             if link.name not in masses:
                 raise SvhdescError(f"link {link.name} has geometry but no mass: add it to a budget or mass.links")
@@ -105,6 +106,61 @@ def add_inertials(robot: Robot, assets: Assets, section: tuple[Mass, Hand]) -> R
             check_inertial(inertial, f"link {link.name}")
         links.append(replace(link, inertial=inertial))
     return replace(robot, links=tuple(links))
+
+
+def _masses(
+    robot: Robot, solids: dict[str, trimesh.Trimesh], mass: Mass, explicit_full: set[str], hand_prefix: str | None
+) -> dict[str, float]:
+    """Link masses: explicit ones, the tiny mass of geometry-less links, then each budget split by volume."""
+    masses: dict[str, float] = {n: float(m) for n, m in mass.links.items() if n in solids}
+    tiny = needs_tiny_mass(robot) - explicit_full
+    masses.update({name: TINY_MASS for name in tiny})
+    for budget in mass.budgets:
+        pattern = expand_hand(str(budget["links"]), hand_prefix, budget.lines.get("links", budget.where))
+        members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
+        fixed = sum(masses.get(n, 0.0) for n in members)
+        free = [n for n in members if n not in masses]
+        remaining = float(budget["total"]) - fixed
+        if members and (remaining <= 0 or not free):
+            raise SvhdescError(f"mass budget {pattern}: explicit masses {fixed} kg leave nothing of {budget['total']}")
+        volumes = {n: abs(exact.mass_properties(solids[n].vertices, solids[n].faces)[0]) for n in free}
+        volume = math.fsum(volumes[n] for n in free)
+        for name in free:
+            masses[name] = remaining * volumes[name] / volume
+    return masses
+
+
+def _check_recompute_names(robot: Robot, mass: Mass) -> None:
+    """A link named for recompute must be one whose source gives an inertial, with geometry to fit."""
+    links = {link.name: link for link in robot.links}
+    for name in sorted(mass.recompute_links):
+        link = links.get(name)
+        at = mass.inertials.lines.get(name, mass.at("inertials"))  # type: ignore[union-attr]
+        if link is None:
+            continue  # another variant's link (names are checked across the config's variants)
+        if link.inertial is None or not link.has_geometry:
+            lacking = "no inertial in its source" if link.inertial is None else "no geometry to fit a cylinder to"
+            raise SvhdescError(f"{at}: mass.inertials.{name}: recompute: link {name} has {lacking}")
+
+
+def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], mass: Mass) -> Inertial:
+    """The source's inertial, or, where the settings say `recompute`, the cylinder fitted to the link's
+    geometry at the link's mass (mass.links, else the source's own), with a warning."""
+    assert link.inertial is not None
+    problem = inertial_problem(link.inertial)
+    asked = link.name in mass.recompute_links
+    if not asked and not (problem and mass.recompute_all and link.name in solids):
+        return link.inertial
+    weight = float(mass.links.get(link.name, link.inertial.mass))  # the tensor is what is wrong, not the mass
+    if weight <= 0:
+        raise SvhdescError(f"link {link.name}: recompute needs a mass > 0: give it in mass.links")
+    reason = f"source inertial invalid ({problem})" if problem else "source inertial replaced as configured"
+    warnings.warn(
+        f"link {link.name}: {reason}; recomputed as a cylinder of {weight:g} kg fitted to its geometry",
+        InertialWarning,
+        stacklevel=2,
+    )
+    return cylinder_inertial(solids[link.name], weight)
 
 
 TINY_MASS = 1e-4  # kg: valid everywhere, negligible against a 7 g fingertip

@@ -16,11 +16,11 @@ LIMIT_TOL = 1e-9
 def check_hand_names(robot: Robot, hand: Hand) -> None:
     links = {link.name for link in robot.links}
     for tip in hand.fingertips:
-        if f"{hand.prefix}_{tip}" not in links:
-            raise SvhdescError(f"{hand.at('fingertips')}: hand.fingertips: no link {hand.prefix}_{tip}")
+        if hand.link(tip) not in links:
+            raise SvhdescError(f"{hand.at('fingertips')}: hand.fingertips: no link {hand.link(tip)}")
     tip = hand.force_sensor
-    if tip and f"{hand.prefix}_{tip}" not in links:
-        raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: no link {hand.prefix}_{tip}")
+    if tip and hand.link(tip) not in links:
+        raise SvhdescError(f"{hand.at('force_sensor')}: hand.force_sensor: no link {hand.link(tip)}")
 
 
 def check_unique_names(robot: Robot, section: tuple[Hand, Arm]) -> None:

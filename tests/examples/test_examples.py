@@ -1,0 +1,162 @@
+"""The example robots that are not the SVH: the vendor UR5 alone (no hand, no couplings) and the xArm6 with its
+gripper from the pybullet wheel (one drive joint, five followers, invalid vendor inertias recomputed). Each
+builds into a temporary folder, validates (exit 0, what does not apply listed as skipped) and loads in every
+loader."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from lxml import etree
+
+import svhdesc
+from svhdesc.loaders import couplings
+from tests.support import REPO, VENDOR_UR, run_cli
+
+EXAMPLES = REPO / "examples"
+UR5 = EXAMPLES / "ur5" / "ur5.yaml"
+XARM = EXAMPLES / "xarm6_gripper" / "xarm6_gripper.yaml"
+XARM_FOLLOWERS = {
+    "left_finger_joint",
+    "left_inner_knuckle_joint",
+    "right_outer_knuckle_joint",
+    "right_finger_joint",
+    "right_inner_knuckle_joint",
+}
+NO_HAND = {"load_limits", "collision_fidelity", "range_of_motion", "contact_stability", "fingertip_force", "grasps"}
+SKIPPED = {"ur5": NO_HAND | {"coupling_tracking", "coupling_spec", "limits"}, "xarm6_gripper": NO_HAND}
+
+pytestmark = pytest.mark.slow  # each robot's build and validate take tens of seconds
+
+
+@pytest.fixture(scope="module")
+def ur5(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    """(the built variant's folder, the build's result)."""
+    if not VENDOR_UR.is_dir():
+        pytest.skip(f"no vendor ur_description at {VENDOR_UR}")
+    out = tmp_path_factory.mktemp("ur5") / "out"
+    result = run_cli("build", "--config", str(UR5), "--out", str(out), "--package", f"ur_description={VENDOR_UR}")
+    assert result.returncode == 0, result.stderr
+    return out / "ur5", result
+
+
+@pytest.fixture(scope="module")
+def xarm(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    pytest.importorskip("pybullet_data")
+    out = tmp_path_factory.mktemp("xarm") / "out"
+    result = run_cli("build", "--config", str(XARM), "--out", str(out))  # the wheel's folder: found, not passed
+    assert result.returncode == 0, result.stderr
+    return out / "xarm6_gripper", result
+
+
+@pytest.fixture(params=["ur5", "xarm6_gripper"])
+def example(request: pytest.FixtureRequest) -> tuple[str, Path, Path]:
+    """(name, config, built folder)."""
+    name = request.param
+    folder, _ = request.getfixturevalue("ur5" if name == "ur5" else "xarm")
+    return name, UR5 if name == "ur5" else XARM, folder
+
+
+def urdf_masses(folder: Path) -> float:
+    root = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
+    return sum(float(m.get("value")) for m in root.iterfind("link/inertial/mass"))
+
+
+def movable(folder: Path) -> list[str]:
+    root = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
+    return [j.get("name") for j in root.iter("joint") if j.get("type") in ("revolute", "continuous", "prismatic")]
+
+
+def test_ur5_alone_needs_no_hand_section(ur5: tuple[Path, subprocess.CompletedProcess[str]]) -> None:
+    written = yaml.safe_load(UR5.read_text())
+    assert "hand" not in written and "coupling" not in written  # no dummy hand, no spec
+    folder, _ = ur5
+    root = etree.parse(str(folder / "ur5.urdf")).getroot()
+    assert root.find(".//mimic") is None
+    assert [t.findtext("joint[1]/hardwareInterface") for t in root.iter("transmission")] == [
+        "hardware_interface/PositionJointInterface"
+    ] * 6
+
+
+def test_xarm_couples_its_own_joints_and_recomputes_invalid_inertias(
+    xarm: tuple[Path, subprocess.CompletedProcess[str]],
+) -> None:
+    folder, result = xarm
+    root = etree.parse(str(folder / "xarm6_gripper.urdf")).getroot()
+    mimics = {j.get("name"): j.find("mimic").get("joint") for j in root.iter("joint") if j.find("mimic") is not None}
+    assert mimics == dict.fromkeys(XARM_FOLLOWERS, "drive_joint")
+    # The vendor's link2 and link3 break the triangle inequality: replaced, one warning each; the rest kept.
+    replaced = sorted(
+        line.split()[2].rstrip(":") for line in result.stderr.splitlines() if "recomputed as a cylinder" in line
+    )
+    assert replaced == ["link2", "link3"], result.stderr
+    for link in root.iter("link"):
+        inertia = link.find("inertial/inertia")
+        if inertia is None:
+            continue
+        v = {k: float(x) for k, x in inertia.attrib.items()}
+        moments = np.linalg.eigvalsh(
+            [[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]], [v["ixz"], v["iyz"], v["izz"]]]
+        )
+        assert moments[0] > 0 and moments[0] + moments[1] >= moments[2] * (1 - 1e-9), link.get("name")
+    link2 = root.find("link[@name='link2']/inertial")
+    assert float(link2.find("mass").get("value")) == 1.71  # the vendor's mass, a fitted distribution
+    assert float(link2.find("inertia").get("ixx")) != 0.0248674
+    assert float(root.find("link[@name='link1']/inertial/inertia").get("ixx")) == 0.00539427  # valid: kept
+    # A hand without prefix: its controller is `hand_controller` (the ROS node's name for it too).
+    controllers = yaml.safe_load((folder / "config" / "moveit_controllers.yaml").read_text())["controller_list"]
+    assert controllers[0]["name"] == "hand_controller" and controllers[0]["joints"] == ["drive_joint"]
+
+
+def test_example_validates(example: tuple[str, Path, Path], tmp_path: Path) -> None:
+    """Every check that applies passes (exit 0); those that do not are skipped and listed with why."""
+    name, config, folder = example
+    report = tmp_path / "report.json"
+    result = run_cli("validate", "--config", str(config), "--out", str(folder.parent), "--json", str(report))
+    assert result.returncode == 0, result.stdout + result.stderr
+    checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
+    assert {n for n, c in checks.items() if c["status"] == "skipped"} == SKIPPED[name]
+    assert all(c["status"] == "pass" for n, c in checks.items() if n not in SKIPPED[name])
+    assert all(checks[n]["detail"] for n in SKIPPED[name])  # each says why
+    assert "skipped (not applicable): " in result.stdout
+    assert f"{len(SKIPPED[name])} skipped as not applicable" in result.stdout
+
+
+def test_example_loads_in_every_loader(example: tuple[str, Path, Path]) -> None:
+    """Each engine loads the built folder, weighs what the URDF says and holds the couplings as constraints."""
+    _, _, folder = example
+    mass = urdf_masses(folder)
+    followers = {c.joint for c in couplings(str(folder))}
+    leaders = [j for j in movable(folder) if j not in followers]
+
+    mujoco_model = svhdesc.load_mujoco(str(folder))
+    assert mujoco_model.neq == len(followers)
+    assert float(mujoco_model.body_mass.sum()) == pytest.approx(mass, abs=1e-6)
+
+    robot = svhdesc.load_pinocchio(str(folder))
+    assert robot.model.nq == len(leaders)  # followers are mimic joints
+    assert sum(i.mass for i in robot.model.inertias) == pytest.approx(mass, abs=1e-6)
+
+    p = pytest.importorskip("pybullet")
+    bullet = svhdesc.load_pybullet(str(folder))
+    try:
+        assert set(bullet.constraints) == followers
+        total = sum(
+            p.getDynamicsInfo(bullet.body, i, physicsClientId=bullet.client)[0] for i in range(-1, len(bullet.joints))
+        )
+        assert total == pytest.approx(mass, abs=1e-6)
+    finally:
+        p.disconnect(physicsClientId=bullet.client)
+
+    drake = svhdesc.load_drake(str(folder))
+    assert drake.plant.num_constraints() == len(followers)
+    assert drake.plant.num_positions() == len(leaders) + len(followers)
+
+    skeleton = svhdesc.load_dart(str(folder))
+    assert skeleton.getMass() == pytest.approx(mass, abs=1e-6)
+    assert skeleton.getNumDofs() == len(leaders) + len(followers)
