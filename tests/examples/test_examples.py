@@ -160,3 +160,25 @@ def test_example_loads_in_every_loader(example: tuple[str, Path, Path]) -> None:
     skeleton = svhdesc.load_dart(str(folder))
     assert skeleton.getMass() == pytest.approx(mass, abs=1e-6)
     assert skeleton.getNumDofs() == len(leaders) + len(followers)
+
+
+def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Path, Path]) -> None:
+    """MoveIt's arm group spans exactly the robot's arm joints: base_link..tool0 where the robot has them
+    (ROS-Industrial's names, the UR5), else the first arm joint's parent to the last one's child (the xArm)."""
+    name, config, folder = example
+    srdf = etree.parse(str(folder / "config" / f"{folder.name}.srdf")).getroot()
+    chain = srdf.find("group[@name='manipulator']/chain")
+    assert (chain.get("base_link"), chain.get("tip_link")) == (
+        ("base_link", "tool0") if name == "ur5" else ("link_base", "link6")
+    )
+    urdf = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
+    up = {j.find("child").get("link"): j for j in urdf.iter("joint")}
+    link, spanned = chain.get("tip_link"), []
+    while link != chain.get("base_link"):
+        joint = up[link]  # a KeyError: the base is not above the tip
+        if joint.get("type") != "fixed":
+            spanned.append(joint.get("name"))
+        link = joint.find("parent").get("link")
+    assert spanned[::-1] == yaml.safe_load(config.read_text())["arm"]["joints"]
+    if name != "ur5":
+        assert srdf.find("end_effector").get("parent_link") == chain.get("tip_link")

@@ -24,6 +24,7 @@ from svhdesc.model import (
 ARM_GROUP = "manipulator"
 HAND_GROUP = "hand"
 BOTH_GROUP = "arm_hand"  # the thesis planned arm and hand as one group (with BioIK)
+# ROS-Industrial's frame names (REP-I0005): the chain runs between them where the robot has them on its arm.
 ARM_BASE, ARM_TIP = "base_link", "tool0"
 STATE_RATE = 50
 REQUEST_ADAPTERS = tuple(
@@ -56,6 +57,24 @@ def arm_joints(robot: Robot) -> list[str]:
     return [a.joint for a in robot.actuators if a.joint not in channels]
 
 
+def arm_chain(robot: Robot) -> tuple[str, str]:
+    """The arm group's chain: ``base_link`` to ``tool0`` where the arm lies between them, else the first arm
+    joint's parent link to the last arm joint's child link."""
+    joints = {j.name: j for j in robot.joints}
+    parent_of = {j.child: j.parent for j in robot.joints}
+    arm = arm_joints(robot)
+    base, tip = joints[arm[0]].parent, joints[arm[-1]].child
+
+    def above(link: str) -> set[str]:
+        found = {link}
+        while link in parent_of:
+            link = parent_of[link]
+            found.add(link)
+        return found
+
+    return (ARM_BASE if ARM_BASE in above(base) else base, ARM_TIP if tip in above(ARM_TIP) else tip)
+
+
 def passive_joints(robot: Robot) -> list[str]:
     return [j.name for j in robot.joints if j.mimic]
 
@@ -68,9 +87,10 @@ def export_srdf(robot: Robot, collisions: Mapping[tuple[str, str], str]) -> byte
     root = etree.Element("robot", name=robot.name)
     root.append(etree.Comment(f" {GENERATED} "))
     arm = arm_joints(robot)
+    base, tip = arm_chain(robot) if arm else (ARM_BASE, ARM_TIP)
     if arm:
         group = sub(root, "group", name=ARM_GROUP)
-        sub(group, "chain", base_link=ARM_BASE, tip_link=ARM_TIP)
+        sub(group, "chain", base_link=base, tip_link=tip)
     group = sub(root, "group", name=HAND_GROUP)
     for joint in hand_joints(robot):
         sub(group, "joint", name=joint)
@@ -86,7 +106,7 @@ def export_srdf(robot: Robot, collisions: Mapping[tuple[str, str], str]) -> byte
         for joint in active:
             sub(state, "joint", name=joint, value=num(values[joint]))
     if arm:
-        sub(root, "end_effector", name=HAND_GROUP, parent_link=ARM_TIP, group=HAND_GROUP, parent_group=ARM_GROUP)
+        sub(root, "end_effector", name=HAND_GROUP, parent_link=tip, group=HAND_GROUP, parent_group=ARM_GROUP)
     sub(root, "virtual_joint", name="virtual_joint", type="fixed", parent_frame="world", child_link=robot.root)
     for joint in passive_joints(robot):
         sub(root, "passive_joint", name=joint)
