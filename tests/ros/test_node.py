@@ -21,7 +21,7 @@ import yaml
 
 import svhdesc
 from svhdesc.ros.system import ros_available
-from tests.rosmaster import master, stop, svhdesc_executable, wait_for
+from tests.rosmaster import master, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
 
 pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed")
@@ -109,11 +109,8 @@ def _goal(
 
 
 def _client(ros: dict[str, Any], controller: str) -> Any:
-    import actionlib
 
-    client = actionlib.SimpleActionClient(
-        f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
-    )
+    client = simple_action_client(f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction)
     assert client.wait_for_server(ros["rospy"].Duration(30)), controller
     return client
 
@@ -444,9 +441,8 @@ def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
         states = Latest(rospy, "/left/joint_states", JointState)
         names = wait_for(lambda: states.message, 60, "/left/joint_states").name
         assert len(names) == 20 and all(n.startswith("left_hand_") for n in names)
-        import actionlib
 
-        client = actionlib.SimpleActionClient(
+        client = simple_action_client(
             "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
         )
         assert client.wait_for_server(rospy.Duration(60))
