@@ -101,14 +101,14 @@ def test_committed_generated_models_are_current() -> None:
 
 
 def test_list_and_info() -> None:
-    listed = run_cli("list")
+    listed = run_cli("list", in_process=True)
     assert listed.returncode == 0
     assert [line.split()[0] for line in listed.stdout.splitlines()] == [
         "svh_right",
         "svh_left",
         "ur5_svh_right",
     ]
-    info = run_cli("info", "ur5_svh_right")
+    info = run_cli("info", "ur5_svh_right", in_process=True)
     assert info.returncode == 0, info.stderr
     assert "26 joints, 15 DoF (11 coupled), 15 actuators" in info.stdout
     row = next(line for line in info.stdout.splitlines() if line.strip().startswith("j15 "))

@@ -8,7 +8,6 @@ kinematic samples (--checks, --samples) to keep the suite quick; one run exercis
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import struct
 import subprocess
@@ -51,7 +50,8 @@ def validate_pair(
     urdf: Path, mjcf: Path, tmp_path: Path, *extra: str
 ) -> tuple[subprocess.CompletedProcess[str], dict[str, dict]]:
     report = tmp_path / "report.json"
-    result = run_cli("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--json", str(report), *extra)
+    args = ("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--json", str(report), *extra)
+    result = run_cli(*args, in_process=True)  # no interpreter start for each of the many faults
     checks = {}
     if report.is_file():
         checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
@@ -237,13 +237,13 @@ def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
 def test_missing_tools_are_not_a_pass(tmp_path: Path) -> None:
     """Without check_urdf and ign on PATH: 'not run', exit 1; --allow-missing-tools lets them through."""
     urdf, mjcf = SOURCE / f"{VARIANT}.urdf", SOURCE / f"{VARIANT}.xml"
-    env = dict(os.environ, PATH=str(tmp_path))  # nothing to find there
+    env = {"PATH": str(tmp_path)}  # nothing to find there
     args = ("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--checks", "urdfdom,sdformat")
-    result = run_cli(*args, env=env)
+    result = run_cli(*args, env=env, in_process=True)
     assert result.returncode == 1
     assert "NOT RUN" in result.stdout and "apt-get install" in result.stdout
     assert "urdfdom, sdformat" in result.stderr
-    assert run_cli(*args, "--allow-missing-tools", env=env).returncode == 0
+    assert run_cli(*args, "--allow-missing-tools", env=env, in_process=True).returncode == 0
 
 
 @pytest.mark.parametrize(
@@ -255,7 +255,7 @@ def test_missing_tools_are_not_a_pass(tmp_path: Path) -> None:
     ],
 )
 def test_bad_input_exits_2(args: tuple[str, ...], message: str) -> None:
-    result = run_cli("validate", *args)
+    result = run_cli("validate", *args, in_process=True)
     assert result.returncode == 2
     assert message in result.stderr
 
@@ -263,7 +263,7 @@ def test_bad_input_exits_2(args: tuple[str, ...], message: str) -> None:
 def test_help_names_every_check() -> None:
     from svhdesc.validate import CHECK_NAMES, GROUPS
 
-    text = " ".join(run_cli("validate", "--help").stdout.split())
+    text = " ".join(run_cli("validate", "--help", in_process=True).stdout.split())
     for name in (*CHECK_NAMES, *GROUPS):
         assert name in text
 
