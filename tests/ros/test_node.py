@@ -72,6 +72,8 @@ def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
                 "PATH": "/usr/bin:/bin",
                 "ROS_PACKAGE_PATH": str(model.directory.parent),
                 "SVHDESC": svhdesc_executable(),
+                # The checkout under test, also where it is on PYTHONPATH rather than installed.
+                **({"PYTHONPATH": os.environ["PYTHONPATH"]} if "PYTHONPATH" in os.environ else {}),
             },
             stdout=(home / "launch.out").open("w"),
             stderr=subprocess.STDOUT,
