@@ -1,4 +1,4 @@
-"""Shared helpers for the tests: one build of every variant per session, and a CLI runner."""
+"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`."""
 
 from __future__ import annotations
 

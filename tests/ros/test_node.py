@@ -111,7 +111,6 @@ def _goal(
 
 
 def _client(ros: dict[str, Any], controller: str) -> Any:
-
     client = simple_action_client(f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction)
     assert client.wait_for_server(ros["rospy"].Duration(30)), controller
     return client
@@ -443,7 +442,6 @@ def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
         states = Latest(rospy, "/left/joint_states", JointState)
         names = wait_for(lambda: states.message, 60, "/left/joint_states").name
         assert len(names) == 20 and all(n.startswith("left_hand_") for n in names)
-
         client = simple_action_client(
             "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
         )
