@@ -1,11 +1,14 @@
-"""Session-wide test settings and shared fixtures.
+"""Session-wide test settings and the shared fixtures.
 
-- The Warp kernel cache; the run's folder with its hull cache (never the user's) and its one session build, shared
-  by pytest-xdist's workers.
-- The `ros` and `slow` markers: `pytest -m "not slow"` is the quick set for development; the README's command and
-  CI run everything in one process (`-n auto --dist loadgroup` spreads a run over pytest-xdist workers).
-- `vendor_build`: the upstream descriptions (config/vendor.yaml) built once per worker; its users share an xdist
-  group so that one worker builds it.
+- The Warp kernel cache; the run's folder with its hull cache (never the user's) and its one session build
+  (`session_build`, tests/support.py `built()`), shared by pytest-xdist's workers.
+- The markers, set here by path so that a moved or new module cannot miss them: `ros` for every module under
+  tests/ros and every module that starts a master (it imports tests/rosmaster.py); `slow` for those and the modules in
+  SLOW. `pytest -m "not slow"` is the quick set for development; the README's command and CI run everything.
+- xdist groups (`--dist loadgroup`, the default in pyproject.toml): the tests of a module with a module-scoped
+  fixture (a ROS master, a planner, a build) run on one worker, so that the fixture is set up once and its tests
+  run in the order they are written; the users of `vendor_build` share one group too.
+- `vendor_build`, `project` (a copy of a project's sources to break), `session_build`.
 """
 
 from __future__ import annotations
@@ -14,11 +17,14 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import yaml
 
 REPO = Path(__file__).resolve().parents[1]
+TESTS = REPO / "tests"
 # MuJoCo Warp compiles its kernels once into the repo's ignored .cache/ (inherited by CLI subprocesses too).
 os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
 # One folder for the whole run, made by the controller (or the only process) and inherited by xdist's workers: the
@@ -34,19 +40,72 @@ def pytest_unconfigure(config: pytest.Config) -> None:
         shutil.rmtree(os.environ["SVHDESC_TEST_RUN"], ignore_errors=True)
 
 
-# Modules that start a ROS master (in a private network namespace, on 127.0.0.1).
-ROS_MODULES = {"test_consumers", "test_pick_and_place", "test_plan_ros", "test_node", "test_robustness"}
-# Modules whose tests take tens of seconds each (engines, grasps held for seconds, Warp, vendor decompositions).
-SLOW_MODULES = {"test_env", "test_grasps", "test_fidelity", "test_compare", "test_plan", "test_wireloop"}
+# Modules (paths under tests/) whose tests take tens of seconds each: engines, grasps held for seconds, Warp, full
+# validate runs, planning end to end, builds in subprocesses. ROS modules are slow as well, wherever they are.
+SLOW = {
+    "batch/test_env.py",
+    "compare/test_compare.py",
+    "plan/test_plan.py",
+    "validate/test_fidelity.py",
+    "validate/test_grasps.py",
+    "wireloop/test_wireloop.py",
+}
+if missing := sorted(p for p in SLOW if not (TESTS / p).is_file()):  # a moved module must not lose its marker
+    raise pytest.UsageError(f"tests/conftest.py SLOW names modules that do not exist: {missing}")
 
 
+def _starts_a_master(module: object) -> bool:
+    import tests.rosmaster
+
+    return any(
+        value is tests.rosmaster or getattr(value, "__module__", None) == "tests.rosmaster"
+        for value in vars(module).values()
+    )
+
+
+def _module_fixture_group(item: pytest.Item) -> str | None:
+    """The module's id if the test uses a module-scoped fixture (pytest's fixture info has no public accessor)."""
+    definitions = getattr(item, "_fixtureinfo", None)
+    for defs in definitions.name2fixturedefs.values() if definitions else ():
+        if any(d.scope == "module" for d in defs):
+            return item.nodeid.split("::", 1)[0]
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
-        module = item.module.__name__.rsplit(".", 1)[-1] if item.module else ""
-        if module in ROS_MODULES:
+        path = Path(str(item.path)).resolve()
+        relative = path.relative_to(TESTS).as_posix() if path.is_relative_to(TESTS) else ""
+        module = getattr(item, "module", None)
+        ros = relative.startswith("ros/") or (module is not None and _starts_a_master(module))
+        if ros:
             item.add_marker(pytest.mark.ros)
-        if module in SLOW_MODULES or module in ROS_MODULES:
+        if ros or relative in SLOW:
             item.add_marker(pytest.mark.slow)
+        if item.get_closest_marker("xdist_group") is None:
+            if "vendor_build" in getattr(item, "fixturenames", ()):
+                item.add_marker(pytest.mark.xdist_group("vendor_build"))
+            elif group := _module_fixture_group(item):
+                item.add_marker(pytest.mark.xdist_group(group))
+
+
+@pytest.fixture(scope="session")
+def session_build() -> Path:
+    """A fresh build of every variant of config/svhdesc.yaml, one per run (tests/support.py built())."""
+    from .support import built
+
+    return built()
+
+
+# The vendor build is about compiling the upstream inputs (their xacro, meshes and limits) with this project's spec,
+# not about decomposing them: every link gets one hull but the index fingertip, whose upstream mesh still goes
+# through CoACD (the decomposition itself is covered by tests/compiler/decompose). Full CoACD on every upstream
+# mesh cost ~3.5 minutes of a run's critical path.
+VENDOR_COLLISION = {
+    "mode": "hull",
+    "links": {"{hand}_t": {"mode": "decompose", "params": {"threshold": 0.05, "max_convex_hull": 4}}},
+}
 
 
 @pytest.fixture(scope="session")
@@ -57,7 +116,51 @@ def vendor_build(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subpro
     if not VENDOR_SVH.is_dir():
         pytest.skip("../shared/vendor is not beside this checkout")
     out = tmp_path_factory.mktemp("vendor")
+    # Its variants as they are (a config does not inherit its base's variants), their paths made absolute.
+    vendor = REPO / "config" / "vendor.yaml"
+    variants = yaml.safe_load(vendor.read_text())["variants"]
+    for variant in variants.values():
+        variant["xacro"] = str((vendor.parent / variant["xacro"]).resolve())
+    config = tmp_path_factory.mktemp("vendor-config") / "vendor.yaml"
+    config.write_text(
+        yaml.safe_dump({"extends": str(vendor), "collision": VENDOR_COLLISION, "variants": variants}, sort_keys=False)
+    )
     packages = ("--package", f"schunk_svh_driver={VENDOR_SVH}", "--package", f"ur_description={VENDOR_UR}")
-    result = run_cli("build", "--config", str(REPO / "config" / "vendor.yaml"), "--out", str(out), *packages)
+    result = run_cli("build", "--config", str(config), "--out", str(out), *packages)
     assert result.returncode == 0, result.stderr
     return out, result
+
+
+PROJECT_PARTS = ("config", "xacro", "meshes")
+
+
+@pytest.fixture
+def project(tmp_path: Path) -> Callable[..., Path]:
+    """Copies of a project's sources, to break in a test; each call makes one under tmp_path:
+
+    - ``project()``: this project's sources (config, xacro, meshes), its config naming the copy as package
+      ``svhdesc``, so that a build reads the copy's files;
+    - ``project(parts=(..., "svhdesc", "pyproject.toml"))``: a whole other checkout (with pyproject.toml it finds
+      its own root, and its config is left as it is);
+    - ``project("mini")``: the two-joint robot of tests/data/mini (its config is mini.yaml).
+    """
+
+    def copy(source: str = "svh", parts: tuple[str, ...] = PROJECT_PARTS, name: str | None = None) -> Path:
+        root = tmp_path / (name or source)
+        if source == "mini":
+            shutil.copytree(TESTS / "data" / "mini", root)
+            return root
+        root.mkdir()
+        for part in parts:
+            if (REPO / part).is_dir():
+                shutil.copytree(REPO / part, root / part, ignore=shutil.ignore_patterns("__pycache__"))
+            else:
+                shutil.copy(REPO / part, root / part)
+        if "pyproject.toml" not in parts:
+            config = root / "config" / "svhdesc.yaml"
+            data = yaml.safe_load(config.read_text())
+            data["packages"] = {"svhdesc": ".."}
+            config.write_text(yaml.safe_dump(data, sort_keys=False))
+        return root
+
+    return copy

@@ -7,9 +7,11 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -77,3 +79,34 @@ def stop(process: subprocess.Popen) -> None:
 
 def svhdesc_executable() -> str:
     return str(Path(sys.executable).with_name("svhdesc"))
+
+
+def simple_action_client(name: str, action: Any) -> Any:
+    """actionlib's SimpleActionClient without its race: an answer that arrives before ``send_goal`` has stored the
+    goal's handle (the sending thread descheduled, as on a loaded machine) is dropped as "a goal handle that we're
+    not tracking", and ``wait_for_result`` never returns. Here such an answer waits until ``send_goal`` is done."""
+    return _race_free_client()(name, action)
+
+
+@cache
+def _race_free_client() -> type:
+    import actionlib
+
+    class Client(actionlib.SimpleActionClient):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            self._sending = threading.RLock()  # before the base class subscribes
+            super().__init__(*args, **kwargs)
+
+        def send_goal(self, *args: Any, **kwargs: Any) -> None:
+            with self._sending:
+                super().send_goal(*args, **kwargs)
+
+        def _handle_transition(self, gh: Any) -> None:
+            with self._sending:
+                super()._handle_transition(gh)
+
+        def _handle_feedback(self, gh: Any, feedback: Any) -> None:
+            with self._sending:
+                super()._handle_feedback(gh, feedback)
+
+    return Client

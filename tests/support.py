@@ -1,4 +1,4 @@
-"""Shared helpers for the tests: one build of every variant per session, and a CLI runner."""
+"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`."""
 
 from __future__ import annotations
 
@@ -21,16 +21,54 @@ VENDOR_UR = SHARED / "vendor" / "ur_description"
 VARIANTS = tuple(load_config(REPO / "config" / "svhdesc.yaml").variants)
 
 
-def run_cli(*args: str, cwd: Path = REPO, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    """``svhdesc ARGS`` in a subprocess; ``env`` adds to the inherited environment."""
+def run_cli(
+    *args: str,
+    cwd: Path = REPO,
+    env: dict[str, str] | None = None,
+    python: str = sys.executable,
+    timeout: float = 600,
+    in_process: bool = False,
+) -> subprocess.CompletedProcess[str]:
+    """``svhdesc ARGS`` in a subprocess of ``python`` (``env`` adds to the inherited environment), or with
+    ``in_process`` through click's runner in this process: no interpreter start, for the many runs that fail early."""
+    if in_process:
+        from click.testing import CliRunner
+
+        from svhdesc.cli import main
+
+        assert cwd == REPO and python == sys.executable, "in-process runs take no cwd or python"
+        result = CliRunner().invoke(main, list(args), env=env)  # env: set for the call, then restored
+        return subprocess.CompletedProcess(args, result.exit_code, result.stdout, result.stderr)
     return subprocess.run(
-        [sys.executable, "-m", "svhdesc.cli", *args],
+        [python, "-m", "svhdesc.cli", *args],
         cwd=cwd,
         capture_output=True,
         text=True,
-        timeout=600,
+        timeout=timeout,
         env={**os.environ, **(env or {})},
     )
+
+
+def snapshot(directory: Path) -> dict[str, bytes | None]:
+    """Every path under ``directory`` (folders as None), with its bytes."""
+    return {
+        p.relative_to(directory).as_posix(): p.read_bytes() if p.is_file() else None
+        for p in sorted(directory.rglob("*"))
+    }
+
+
+def fails_cleanly(out: Path | None, *args: str, match: str) -> str:
+    """``svhdesc ARGS`` (in process) exits 2 with exactly one ``error:`` line, which names ``match``, and no
+    traceback; ``out``, if it exists, is left as it was (no file changed, none added, no temporary leftovers)."""
+    before = snapshot(out) if out is not None and out.is_dir() else None
+    result = run_cli(*args, in_process=True)
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert result.returncode == 2, (result.returncode, result.stderr)  # 1: an uncaught exception
+    assert len(errors) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert match in errors[0], errors[0]
+    if before is not None:
+        assert snapshot(out) == before  # type: ignore[arg-type]
+    return errors[0]
 
 
 @functools.cache

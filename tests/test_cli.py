@@ -3,111 +3,84 @@
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-import yaml
 
-from tests.support import REPO, built, run_cli
+from tests.support import fails_cleanly, run_cli
 
-CONFIG = REPO / "config" / "svhdesc.yaml"
-
-
-def snapshot(directory: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()}
+CONFIG = "config/svhdesc.yaml"  # in a copy of the project
 
 
 @pytest.fixture
-def out(tmp_path: Path) -> Path:
+def out(tmp_path: Path, session_build: Path) -> Path:
     """An output directory holding a previous good build of svh_right."""
     target = tmp_path / "out"
-    shutil.copytree(built() / "svh_right", target / "svh_right")
+    shutil.copytree(session_build / "svh_right", target / "svh_right")
     return target
 
 
-@pytest.fixture
-def project(tmp_path: Path) -> Path:
-    """A copy of the sources (config, xacro, meshes) to break in a test."""
-    root = tmp_path / "project"
-    for part in ("config", "xacro", "meshes"):
-        shutil.copytree(REPO / part, root / part)
-    return root
+def build_fails_cleanly(out: Path, *args: str, match: str) -> str:
+    """``svhdesc build svh_right --out OUT ARGS`` fails cleanly and leaves ``out`` as it was."""
+    return fails_cleanly(out, "build", "svh_right", "--out", str(out), *args, match=match)
 
 
-def fails_cleanly(out: Path, *args: str, match: str) -> str:
-    before = snapshot(out)
-    result = run_cli("build", "svh_right", "--out", str(out), *args)
-    assert result.returncode == 2, result.stderr
-    lines = result.stderr.strip().splitlines()
-    errors = [line for line in lines if line.startswith("error:")]
-    assert len(errors) == 1 and "Traceback" not in result.stderr, result.stderr
-    assert match in errors[0], errors[0]
-    assert snapshot(out) == before  # nothing in --out changed
-    assert [p.name for p in out.iterdir()] == ["svh_right"]  # no temporary leftovers
-    return errors[0]
-
-
-def configure(project: Path, edit: dict | None = None) -> Path:
-    data = yaml.safe_load((project / "config" / "svhdesc.yaml").read_text())
-    data.update(edit or {})
-    data["packages"] = {"svhdesc": ".."}
-    path = project / "config" / "svhdesc.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
-
-
-def test_malformed_xacro_names_file_and_line(out: Path, project: Path) -> None:
-    source = project / "xacro" / "svh.xacro"
+def test_malformed_xacro_names_file_and_line(out: Path, project: Callable[..., Path]) -> None:
+    root = project()
+    source = root / "xacro" / "svh.xacro"
     lines = source.read_text().splitlines()
     number = next(i for i, line in enumerate(lines) if '<xacro:macro name="svh_hand"' in line)
     lines[number] = lines[number].replace("<xacro:macro", "<xacro:macro <")
     source.write_text("\n".join(lines))
-    message = fails_cleanly(out, "--config", str(configure(project)), match=f"svh.xacro:{number + 1}:")
+    message = build_fails_cleanly(out, "--config", str(root / CONFIG), match=f"svh.xacro:{number + 1}:")
     assert "malformed XML" in message
 
 
-def test_missing_mesh_is_named(out: Path, project: Path) -> None:
-    (project / "meshes" / "svh" / "t.dae").unlink()
-    fails_cleanly(out, "--config", str(configure(project)), match="t.dae")
+def test_missing_mesh_is_named(out: Path, project: Callable[..., Path]) -> None:
+    root = project()
+    (root / "meshes" / "svh" / "t.dae").unlink()
+    build_fails_cleanly(out, "--config", str(root / CONFIG), match="t.dae")
 
 
-def test_unknown_package_is_named(out: Path, project: Path) -> None:
-    config = configure(project)
-    data = yaml.safe_load(config.read_text())
-    data["packages"] = {"other": ".."}
-    config.write_text(yaml.safe_dump(data))
-    fails_cleanly(out, "--config", str(config), match="unknown package 'svhdesc'")
+def test_unknown_package_is_named(out: Path, project: Callable[..., Path]) -> None:
+    config = project() / CONFIG
+    config.write_text(config.read_text().replace("svhdesc: ..", "other: .."))
+    assert "other: .." in config.read_text()
+    build_fails_cleanly(out, "--config", str(config), match="unknown package 'svhdesc'")
 
 
-def test_bad_coupling_spec_is_named(out: Path, project: Path) -> None:
-    spec = project / "config" / "coupling.yaml"
+def test_bad_coupling_spec_is_named(out: Path, project: Callable[..., Path]) -> None:
+    root = project()
+    spec = root / "config" / "coupling.yaml"
     spec.write_text(spec.read_text().replace("joint: j15,", "joint: j99,"))
-    fails_cleanly(out, "--config", str(configure(project)), match="coupling.yaml:")
+    build_fails_cleanly(out, "--config", str(root / CONFIG), match="coupling.yaml:")
 
 
-def test_vendor_limit_contradiction_is_refused_in_strict_mode(out: Path, project: Path) -> None:
-    source = project / "xacro" / "svh.xacro"
+def test_vendor_limit_contradiction_is_refused_in_strict_mode(out: Path, project: Callable[..., Path]) -> None:
+    root = project()
+    source = root / "xacro" / "svh.xacro"
     text = source.read_text()
     assert "1.39457" in text  # our fixed j15 limit
     source.write_text(text.replace("1.39457", "1.334"))
-    fails_cleanly(out, "--config", str(configure(project)), match="j15")
+    build_fails_cleanly(out, "--config", str(root / CONFIG), match="j15")
 
 
 def test_unknown_variant(out: Path) -> None:
-    fails_cleanly(out, "no_such_hand", match="unknown variant 'no_such_hand'")
+    build_fails_cleanly(out, "no_such_hand", match="unknown variant 'no_such_hand'")
 
 
 def test_unreadable_config(out: Path, tmp_path: Path) -> None:
-    fails_cleanly(out, "--config", str(tmp_path / "absent.yaml"), match="absent.yaml")
+    build_fails_cleanly(out, "--config", str(tmp_path / "absent.yaml"), match="absent.yaml")
     broken = tmp_path / "broken.yaml"
     broken.write_text("variants: [unclosed\n")
-    fails_cleanly(out, "--config", str(broken), match="broken.yaml:")
+    build_fails_cleanly(out, "--config", str(broken), match="broken.yaml:")
 
 
 @pytest.mark.slow
-def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path) -> None:
+def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path, session_build: Path) -> None:
     out = tmp_path / "gen"
-    shutil.copytree(built(), out)
+    shutil.copytree(session_build, out)
     assert run_cli("build", "--check", "--out", str(out)).returncode == 0
     urdf = out / "svh_left" / "svh_left.urdf"
     urdf.write_bytes(urdf.read_bytes() + b"\n")
@@ -128,14 +101,14 @@ def test_committed_generated_models_are_current() -> None:
 
 
 def test_list_and_info() -> None:
-    listed = run_cli("list")
+    listed = run_cli("list", in_process=True)
     assert listed.returncode == 0
     assert [line.split()[0] for line in listed.stdout.splitlines()] == [
         "svh_right",
         "svh_left",
         "ur5_svh_right",
     ]
-    info = run_cli("info", "ur5_svh_right")
+    info = run_cli("info", "ur5_svh_right", in_process=True)
     assert info.returncode == 0, info.stderr
     assert "26 joints, 15 DoF (11 coupled), 15 actuators" in info.stdout
     row = next(line for line in info.stdout.splitlines() if line.strip().startswith("j15 "))
@@ -143,7 +116,6 @@ def test_list_and_info() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("vendor")
 def test_vendor_description_builds_with_this_projects_spec(vendor_build: tuple[Path, object]) -> None:
     out, result = vendor_build
     assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr  # type: ignore[attr-defined]

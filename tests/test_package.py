@@ -4,15 +4,15 @@ in a virtual environment that inherits nothing from this interpreter."""
 from __future__ import annotations
 
 import hashlib
-import shutil
 import subprocess
 import sys
 import venv
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
-from tests.support import REPO, VARIANTS
+from tests.support import REPO, VARIANTS, run_cli
 
 
 def test_import_does_not_load_mujoco() -> None:
@@ -21,25 +21,18 @@ def test_import_does_not_load_mujoco() -> None:
     assert result.stdout.strip() == "False"
 
 
-def _cli(*args: str, cwd: Path, python: str = sys.executable) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([python, "-m", "svhdesc.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
-
-
 def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 @pytest.mark.slow
-def test_build_inside_another_checkout_builds_that_checkout(tmp_path: Path) -> None:
-    clone = tmp_path / "clone"
-    for name in ("config", "xacro", "meshes", "generated", "svhdesc"):
-        shutil.copytree(REPO / name, clone / name, ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copy(REPO / "pyproject.toml", clone / "pyproject.toml")
+def test_build_inside_another_checkout_builds_that_checkout(project: Callable[..., Path]) -> None:
+    clone = project(parts=("config", "xacro", "meshes", "generated", "svhdesc", "pyproject.toml"), name="clone")
     config = clone / "config" / "svhdesc.yaml"
     config.write_text(config.read_text().replace("kp: 10.0 ", "kp: 12.5 ", 1))
     ours = REPO / "generated" / "svh_right" / "svh_right.xml"
     before = _digest(ours)
-    result = _cli("build", "svh_right", cwd=clone / "meshes")  # anywhere below the checkout's root
+    result = run_cli("build", "svh_right", cwd=clone / "meshes")  # anywhere below the checkout's root
     assert result.returncode == 0, result.stderr
     assert f"built {clone / 'generated' / 'svh_right'}" in result.stdout
     assert 'kp="12.5"' in (clone / "generated" / "svh_right" / "svh_right.xml").read_text()
@@ -54,7 +47,7 @@ def test_build_with_a_users_config_writes_beside_it(tmp_path: Path) -> None:
         f"extends: {REPO / 'config' / 'svhdesc.yaml'}\n"
         f"variants:\n  my_hand:\n    xacro: {REPO / 'xacro' / 'svh_hand.urdf.xacro'}\n    args: {{side: right}}\n"
     )
-    result = _cli("build", "--config", str(config), cwd=tmp_path)
+    result = run_cli("build", "--config", str(config), cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     built = tmp_path / "mine" / "generated" / "my_hand"
     assert (built / "my_hand.urdf").is_file() and (built / "package.xml").is_file()
@@ -97,21 +90,23 @@ def test_installed_wheel_works_anywhere(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == [str(sorted(VARIANTS)), "9 11"]
 
-    listed = _cli("list", cwd=work, python=python)
+    listed = run_cli("list", cwd=work, python=python)
     assert listed.returncode == 0, listed.stderr
     assert [line.split("\t")[0] for line in listed.stdout.splitlines()] == list(VARIANTS)
-    checked = _cli("validate", "svh_left", "--checks", "simulate,mass,yourdfpy,limits", cwd=work, python=python)
+    checked = run_cli("validate", "svh_left", "--checks", "simulate,mass,yourdfpy,limits", cwd=work, python=python)
     assert checked.returncode == 0, checked.stdout + checked.stderr
-    rendered = _cli("render", "svh_left", "--out", str(work / "left.png"), "--size", "64x48", cwd=work, python=python)
+    rendered = run_cli(
+        "render", "svh_left", "--out", str(work / "left.png"), "--size", "64x48", cwd=work, python=python
+    )
     assert rendered.returncode == 0, rendered.stderr
     assert (work / "left.png").read_bytes().startswith(b"\x89PNG")
     # The compiler is an extra of its own; the shipped sources are never an output folder.
-    info = _cli("info", "svh_left", cwd=work, python=python)
+    info = run_cli("info", "svh_left", cwd=work, python=python)
     assert info.returncode == 2 and info.stderr.strip().endswith("pip install 'svhdesc[build]'"), info.stderr
     where = subprocess.run([python, "-c", "import svhdesc; print(svhdesc.__file__)"], capture_output=True, text=True)
     site = Path(where.stdout.strip()).parent
     before = sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts)
-    build = _cli("build", "svh_left", cwd=work, python=python)
+    build = run_cli("build", "svh_left", cwd=work, python=python)
     assert build.returncode == 2, build.stderr
     assert "error:" in build.stderr and "Traceback" not in build.stderr
     assert sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts) == before

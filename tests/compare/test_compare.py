@@ -13,6 +13,7 @@ import pytest
 
 from svhdesc.compare import experiment
 from svhdesc.compare.runner import STATUS_MISSING, STATUS_OK, Result, run_grid
+from tests.support import run_cli
 
 VARIANT = "ur5_svh_right"
 SHORT = 1.0  # s: ramp 0.2 s, then the fingertip presses; keeps each engine to a few seconds
@@ -143,9 +144,7 @@ def test_missing_engine_is_reported_not_raised(tmp_path) -> None:
 
 def test_cli_rejects_bad_input() -> None:
     for args in (["nope"], ["--engines", "gazebo"], ["--inertias", "heavy"], ["--inertias", "-1"]):
-        run = subprocess.run(
-            [sys.executable, "-m", "svhdesc.cli", "compare", *args], capture_output=True, text=True, timeout=60
-        )
+        run = run_cli("compare", *args, in_process=True)
         assert run.returncode == 2 and run.stderr.startswith("error:"), (args, run.stderr)
         assert "Traceback" not in run.stderr
 
@@ -367,12 +366,7 @@ def test_every_deviation_is_stated_and_thesis_setup_follows_the_thesis(tmp_path)
 
     out = tmp_path / "r.json"
     args = ["--engines", "mujoco", "--inertias", "0.01", "--duration", "1.0", "--thesis-setup", "--window", "trailing"]
-    run = subprocess.run(
-        [sys.executable, "-m", "svhdesc.cli", "compare", *args, "--json", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    run = run_cli("compare", *args, "--json", str(out), timeout=120)
     assert run.returncode == 0, run.stderr
     assert "window 10 trailing (9 before, 0 after), 50 Hz, vertical force, thesis setup" in run.stdout
     document = json.loads(out.read_text())

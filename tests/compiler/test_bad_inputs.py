@@ -17,54 +17,32 @@ import pytest
 from click.testing import CliRunner
 
 from svhdesc.cli import main
-from tests.support import TESTS
+from tests.support import TESTS, fails_cleanly, run_cli, snapshot
 
 MINI = TESTS / "data" / "mini"
-
-
-def snapshot(directory: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()}
-
-
-def invoke(*args: str) -> tuple[int, str, BaseException | None]:
-    result = CliRunner().invoke(main, list(args))
-    return result.exit_code, result.stderr, result.exception
 
 
 @pytest.fixture(scope="module")
 def good_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("mini-good") / "out"
-    code, stderr, _ = invoke("build", "--config", str(MINI / "mini.yaml"), "--out", str(out))
-    assert code == 0, stderr
+    result = run_cli("build", "--config", str(MINI / "mini.yaml"), "--out", str(out), in_process=True)
+    assert result.returncode == 0, result.stderr
     return out
 
 
 @pytest.fixture
-def mini(tmp_path: Path, good_build: Path) -> tuple[Path, Path]:
+def mini(tmp_path: Path, project: Callable[..., Path], good_build: Path) -> tuple[Path, Path]:
     """(a copy of the mini sources, an --out holding their good build)."""
-    project = tmp_path / "mini"
-    shutil.copytree(MINI, project)
+    copy = project("mini")
     out = tmp_path / "out"
     shutil.copytree(good_build, out)
-    return project, out
+    return copy, out
 
 
 def edit(path: Path, old: str, new: str) -> None:
     text = path.read_text()
     assert old in text, f"{old!r} not in {path.name}"
     path.write_text(text.replace(old, new, 1))
-
-
-def fails_cleanly(out: Path | None, args: list[str], match: str) -> str:
-    before = snapshot(out) if out is not None and out.is_dir() else None
-    code, stderr, exception = invoke(*args)
-    errors = [line for line in stderr.splitlines() if line.startswith("error:")]
-    assert code == 2 and isinstance(exception, SystemExit), (code, stderr, exception)
-    assert len(errors) == 1 and "Traceback" not in stderr, stderr
-    assert match in errors[0], errors[0]
-    if before is not None:
-        assert snapshot(out) == before  # nothing changed, no leftovers
-    return errors[0]
 
 
 def stl_with(value: float) -> bytes:
@@ -381,14 +359,14 @@ def test_bad_input_fails_cleanly(
 ) -> None:
     project, out = mini
     mutate(project)
-    fails_cleanly(out, ["build", "--config", str(project / "mini.yaml"), "--out", str(out)], match)
+    fails_cleanly(out, "build", "--config", str(project / "mini.yaml"), "--out", str(out), match=match)
 
 
 def test_no_empty_out_is_left_behind(mini: tuple[Path, Path], tmp_path: Path) -> None:
     project, _ = mini
     edit(project / "coupling.yaml", "effort: 1.0", "effort: -1.0")
     fresh = tmp_path / "fresh" / "out"
-    fails_cleanly(None, ["build", "--config", str(project / "mini.yaml"), "--out", str(fresh)], "effort")
+    fails_cleanly(None, "build", "--config", str(project / "mini.yaml"), "--out", str(fresh), match="effort")
     assert not fresh.exists() and not fresh.parent.exists()
 
 
@@ -397,34 +375,34 @@ def test_other_subcommands_refuse_bad_config(mini: tuple[Path, Path], command: s
     project, _ = mini
     edit(project / "mini.yaml", "kp: 1.0", "kp: stiff")
     args = {"list": ["list"], "info": ["info", "mini"], "validate": ["validate", "--checks", "limits"]}[command]
-    fails_cleanly(None, [*args, "--config", str(project / "mini.yaml")], "hand.kp")
+    fails_cleanly(None, *args, "--config", str(project / "mini.yaml"), match="hand.kp")
 
 
 @pytest.mark.parametrize("command", ["build", "list", "validate"])
 def test_missing_config_is_named(tmp_path: Path, command: str) -> None:
     missing = str(tmp_path / "missing.yaml")
-    fails_cleanly(None, [command, "--config", missing], "missing.yaml")
+    fails_cleanly(None, command, "--config", missing, match="missing.yaml")
 
 
 def test_out_is_a_file(mini: tuple[Path, Path], tmp_path: Path) -> None:
     project, _ = mini
     target = tmp_path / "file"
     target.write_text("not a directory")
-    fails_cleanly(None, ["build", "--config", str(project / "mini.yaml"), "--out", str(target)], str(target))
-    fails_cleanly(None, ["build", "--config", str(project / "mini.yaml"), "--out", str(target / "sub")], "file")
+    fails_cleanly(None, "build", "--config", str(project / "mini.yaml"), "--out", str(target), match=str(target))
+    fails_cleanly(None, "build", "--config", str(project / "mini.yaml"), "--out", str(target / "sub"), match="file")
     assert target.read_text() == "not a directory"
 
 
 def test_bad_package_option_and_unknown_variant(mini: tuple[Path, Path]) -> None:
     project, out = mini
     base = ["build", "--config", str(project / "mini.yaml"), "--out", str(out)]
-    fails_cleanly(out, [*base, "--package", "nodir"], "nodir")
-    fails_cleanly(out, [*base, "nosuch"], "unknown variant 'nosuch'")
+    fails_cleanly(out, *base, "--package", "nodir", match="nodir")
+    fails_cleanly(out, *base, "nosuch", match="unknown variant 'nosuch'")
 
 
 def test_non_utf8_config_path(tmp_path: Path) -> None:
     name = tmp_path / "caf\udce9.yaml"  # a file name that is not valid UTF-8
-    fails_cleanly(None, ["build", "--config", str(name), "--out", str(tmp_path / "out")], "caf")
+    fails_cleanly(None, "build", "--config", str(name), "--out", str(tmp_path / "out"), match="caf")
 
 
 @pytest.fixture
@@ -451,7 +429,9 @@ def tmpfs(tmp_path: Path) -> Iterator[Callable[..., Path]]:
 def test_disk_full(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> None:
     project, _ = mini
     out = tmpfs("12k")
-    message = fails_cleanly(out, ["build", "--config", str(project / "mini.yaml"), "--out", str(out)], "no space left")
+    message = fails_cleanly(
+        out, "build", "--config", str(project / "mini.yaml"), "--out", str(out), match="no space left"
+    )
     assert str(out) in message
     assert list(out.iterdir()) == []  # no staging directory left behind
 
@@ -462,7 +442,7 @@ def test_read_only_out(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> N
     shutil.copytree(good / "mini", out / "mini")
     subprocess.run(["mount", "-o", "remount,ro", str(out)], check=True)
     args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force"]
-    fails_cleanly(out, args, "Read-only file system")
+    fails_cleanly(out, *args, match="Read-only file system")
 
 
 # --- duplicate names: the issue's own case in the project's and the vendor's xacro, and the final model ---
@@ -489,7 +469,7 @@ def test_duplicate_fixed_joint_in_the_hand_xacro(tmp_path: Path, source: str) ->
         args = ["build", "svh_vendor_right", "--config", str(repo / "config" / "vendor.yaml")]
         args += ["--package", f"schunk_svh_driver={vendor}"]
         match = "svh.urdf.xacro:442: duplicate joint 'right_hand_f1'"
-    fails_cleanly(out, [*args, "--out", str(out)], match)
+    fails_cleanly(out, *args, "--out", str(out), match=match)
 
 
 @pytest.mark.parametrize("kind", ["link", "site", "sensor", "keyframe"])
@@ -541,9 +521,9 @@ COMMANDS = [[], *all_commands()]
 @pytest.mark.parametrize("command", COMMANDS, ids=[" ".join(c) or "svhdesc" for c in COMMANDS])
 def test_usage_errors_are_one_line(command: list[str]) -> None:
     if command == ["sim"]:  # takes unknown options as ROS remappings; refuses them itself
-        fails_cleanly(None, [*command, "--bogus"], "unknown variant '--bogus'")
+        fails_cleanly(None, *command, "--bogus", match="unknown variant '--bogus'")
         return
-    message = fails_cleanly(None, [*command, "--bogus"], "No such option")
+    message = fails_cleanly(None, *command, "--bogus", match="No such option")
     assert "--bogus" in message and " ".join(["main", *command]) in message
 
 
@@ -562,13 +542,14 @@ def test_bad_option_values_are_one_line(mini: tuple[Path, Path], args: list[str]
     project, out = mini
     if args[0] == "build":
         args = [*args, "--config", str(project / "mini.yaml"), "--out", str(out)]
-    fails_cleanly(out, args, match)
+    fails_cleanly(out, *args, match=match)
 
 
 def test_jobs_zero_means_one_per_cpu(mini: tuple[Path, Path]) -> None:
     project, out = mini
-    code, stderr, _ = invoke("build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force", "-j", "0")
-    assert code == 0, stderr
+    args = ("build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force", "-j", "0")
+    result = run_cli(*args, in_process=True)
+    assert result.returncode == 0, result.stderr
     assert "0 (the default): one per CPU" in CliRunner().invoke(main, ["build", "--help"]).output
 
 
@@ -589,15 +570,15 @@ def test_config_in_a_non_utf8_folder_builds(tmp_path: Path, good_build: Path) ->
     project = tmp_path / NOT_UTF8 / "mini"
     shutil.copytree(MINI, project)
     out = tmp_path / "out"
-    code, stderr, _ = invoke("build", "--config", str(project / "mini.yaml"), "--out", str(out))
-    assert code == 0, stderr
+    result = run_cli("build", "--config", str(project / "mini.yaml"), "--out", str(out), in_process=True)
+    assert result.returncode == 0, result.stderr
     assert snapshot(out) == snapshot(good_build)  # the folder's name is in no output
 
 
 def test_out_in_a_non_utf8_folder_builds(tmp_path: Path, good_build: Path) -> None:
     out = tmp_path / NOT_UTF8 / "out"
-    code, stderr, _ = invoke("build", "--config", str(MINI / "mini.yaml"), "--out", str(out))
-    assert code == 0, stderr
+    result = run_cli("build", "--config", str(MINI / "mini.yaml"), "--out", str(out), in_process=True)
+    assert result.returncode == 0, result.stderr
     assert snapshot(out) == snapshot(good_build)
 
 
@@ -608,4 +589,4 @@ def test_non_utf8_path_inside_the_xacro_is_refused(mini: tuple[Path, Path], tmp_
     shutil.copytree(MINI, package)
     edit(project / "mini.xacro", 'filename="cube.stl"/>', 'filename="$(find mypkg)/cube.stl"/>')
     args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--package", f"mypkg={package}"]
-    fails_cleanly(out, args, "/cube.stl' is not UTF-8")
+    fails_cleanly(out, *args, match="/cube.stl' is not UTF-8")

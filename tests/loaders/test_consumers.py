@@ -7,7 +7,6 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +15,7 @@ from lxml import etree
 
 import svhdesc
 from tests.rosmaster import free_port
-from tests.support import REPO, TESTS
+from tests.support import REPO, TESTS, run_cli
 
 ROSPY = Path("/usr/lib/python3/dist-packages/rospy")
 DEBIAN_PYTHON = "/usr/bin/python3"
@@ -169,12 +168,7 @@ def test_invalid_ros_package_name_is_refused(tmp_path: Path) -> None:
         f"extends: {REPO / 'config' / 'svhdesc.yaml'}\n"
         f"variants:\n  Bad-Name:\n    xacro: {REPO / 'xacro' / 'svh_hand.urdf.xacro'}\n    args: {{side: right}}\n"
     )
-    result = subprocess.run(
-        [sys.executable, "-m", "svhdesc.cli", "build", "--config", str(config), "--out", str(tmp_path / "out")],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    result = run_cli("build", "--config", str(config), "--out", str(tmp_path / "out"), in_process=True)
     assert result.returncode == 2, result.stderr
     assert result.stderr.startswith("error: variant 'Bad-Name' is not a valid ROS package name")
     assert "Traceback" not in result.stderr

@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from svhdesc.ros.messages import control_msgs  # noqa: E402
 from svhdesc.ros.system import import_ros  # noqa: E402
-from tests.rosmaster import wait_for  # noqa: E402
+from tests.rosmaster import simple_action_client, wait_for  # noqa: E402
 
 HAND = "right_hand_controller"
 
@@ -42,9 +42,8 @@ CHANNELS = [
 
 
 def _client(node: dict[str, Any]) -> Any:
-    import actionlib
 
-    client = actionlib.SimpleActionClient(f"/{HAND}/follow_joint_trajectory", node["msgs"].FollowJointTrajectoryAction)
+    client = simple_action_client(f"/{HAND}/follow_joint_trajectory", node["msgs"].FollowJointTrajectoryAction)
     assert client.wait_for_server(node["rospy"].Duration(30))
     return client
 

@@ -21,7 +21,7 @@ import yaml
 
 import svhdesc
 from svhdesc.ros.system import ros_available
-from tests.rosmaster import master, stop, svhdesc_executable, wait_for
+from tests.rosmaster import master, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
 
 pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed")
@@ -72,6 +72,8 @@ def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
                 "PATH": "/usr/bin:/bin",
                 "ROS_PACKAGE_PATH": str(model.directory.parent),
                 "SVHDESC": svhdesc_executable(),
+                # The checkout under test, also where it is on PYTHONPATH rather than installed.
+                **({"PYTHONPATH": os.environ["PYTHONPATH"]} if "PYTHONPATH" in os.environ else {}),
             },
             stdout=(home / "launch.out").open("w"),
             stderr=subprocess.STDOUT,
@@ -109,11 +111,7 @@ def _goal(
 
 
 def _client(ros: dict[str, Any], controller: str) -> Any:
-    import actionlib
-
-    client = actionlib.SimpleActionClient(
-        f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
-    )
+    client = simple_action_client(f"/{controller}/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction)
     assert client.wait_for_server(ros["rospy"].Duration(30)), controller
     return client
 
@@ -128,6 +126,26 @@ def _send(ros: dict[str, Any], controller: str, goal: Any, wait: float = 60.0) -
 def _positions(ros: dict[str, Any]) -> dict[str, float]:
     message = ros["states"].fresh()
     return dict(zip(message.name, message.position))
+
+
+def _at_rest(
+    ros: dict[str, Any], joints: list[str], tolerance: float = 2e-4, timeout: float = 120.0
+) -> dict[str, float]:
+    """The positions once ``joints`` moved less than ``tolerance`` over 0.2 s of simulated time. Waits on the
+    node's simulated time, never a fixed sleep; the wall-clock deadline is generous because on a loaded machine
+    the node runs slower."""
+    reference = ros["states"].fresh()
+
+    def settled() -> dict[str, float] | None:
+        nonlocal reference
+        message = ros["states"].fresh()
+        if (message.header.stamp - reference.header.stamp).to_sec() < 0.2:
+            return None
+        before, now = dict(zip(reference.name, reference.position)), dict(zip(message.name, message.position))
+        reference = message
+        return now if all(abs(now[j] - before[j]) < tolerance for j in joints) else None
+
+    return wait_for(settled, timeout, f"{joints} at rest")
 
 
 def test_goal_message_md5_matches_a_real_ros_system() -> None:
@@ -384,7 +402,7 @@ def test_cli_refuses_bad_connector_without_traceback(tmp_path: Path) -> None:
     bad = tmp_path / "connector.yaml"
     bad.write_text("joints:\n- {name: right_hand_Pinky, p_gain: -1}\n")
     for path, culprit in ((bad, "connector.yaml"), (tmp_path / "missing.yaml", "missing.yaml")):
-        result = run_cli("sim", VARIANT, "--ros", "--connector", str(path))
+        result = run_cli("sim", VARIANT, "--ros", "--connector", str(path), in_process=True)  # refused before init_node
         assert result.returncode == 2 and result.stderr.startswith("error:") and culprit in result.stderr
         assert "Traceback" not in result.stderr
 
@@ -414,7 +432,8 @@ def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
 
     rospy = ros["rospy"]
     node = subprocess.Popen(
-        [svhdesc_executable(), "sim", "svh_left", "--ros", "--realtime", "--duration", "30"]
+        # A duration it never reaches (stopped below): on a loaded machine starting it can take long.
+        [svhdesc_executable(), "sim", "svh_left", "--ros", "--realtime", "--duration", "600"]
         + ["__ns:=/left", "__name:=left_sim", "/clock:=/left/clock"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -423,9 +442,7 @@ def test_hand_only_variant_in_a_namespace(ros: dict[str, Any]) -> None:
         states = Latest(rospy, "/left/joint_states", JointState)
         names = wait_for(lambda: states.message, 60, "/left/joint_states").name
         assert len(names) == 20 and all(n.startswith("left_hand_") for n in names)
-        import actionlib
-
-        client = actionlib.SimpleActionClient(
+        client = simple_action_client(
             "/left/left_hand_controller/follow_joint_trajectory", ros["msgs"].FollowJointTrajectoryAction
         )
         assert client.wait_for_server(rospy.Duration(60))
@@ -507,6 +524,8 @@ def test_hand_defaults_are_schunks_and_arm_defaults_are_urs(ros: dict[str, Any])
 
 
 def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
+    from actionlib_msgs.msg import GoalStatus
+
     rospy, msgs = ros["rospy"], ros["msgs"]
     state = Latest(rospy, f"/{HAND}/state", msgs.JointTrajectoryControllerState, keep=True)
     try:
@@ -515,7 +534,8 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
         assert len(first.joint_names) == 9 and first.joint_names[0] == "right_hand_Thumb_Flexion"
         stamps = [m.header.stamp.to_sec() for m in state.all[-5:]]
         assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=0.011)  # 50 Hz of simulated time
-        positions = _positions(ros)
+        # Compared at rest: a finger still on its way from an earlier goal moves between the two messages.
+        positions = _at_rest(ros, list(first.joint_names))
         latest = state.fresh()
         for name, actual in zip(latest.joint_names, latest.actual.positions):
             assert actual == pytest.approx(positions[name], abs=5e-3), name
@@ -525,16 +545,20 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
     query.wait_for_service(20)
     client = _client(ros, HAND)
     now = rospy.Time.now()
-    goal = _goal(ros, ["right_hand_Ring_Finger"], [[0.2], [0.6]], [1.0, 2.0])
+    # Long enough (simulated time) to be still active when queried however slowly this machine runs the node:
+    # a finished goal is replaced by a hold, whose samples are the hand's position.
+    goal = _goal(ros, ["right_hand_Ring_Finger"], [[0.2], [0.6]], [100.0, 200.0])
     goal.trajectory.header.stamp = now
     client.send_goal(goal)
-    wait_for(lambda: client.get_state() == 1, 30, "the goal to start")  # ACTIVE
-    answer = query(now + rospy.Duration(2.5))  # after the end: the last point
+    wait_for(lambda: client.get_state() == GoalStatus.ACTIVE, 30, "the goal to start")
+    answer = query(now + rospy.Duration(250.0))  # after the end: the last point
     ring = list(answer.name).index("right_hand_Ring_Finger")
     assert answer.position[ring] == pytest.approx(0.6, abs=1e-6) and answer.velocity[ring] == 0.0
-    middle = query(now + rospy.Duration(1.0))
+    middle = query(now + rospy.Duration(100.0))
     assert middle.position[ring] == pytest.approx(0.2, abs=1e-6)
-    assert client.wait_for_result(rospy.Duration(60))
+    assert client.get_state() == GoalStatus.ACTIVE  # both answers came from this goal, not a hold after it
+    client.cancel_goal()
+    assert client.wait_for_result(rospy.Duration(60)) and client.get_state() == GoalStatus.PREEMPTED
 
 
 def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[str, Any]) -> None:
@@ -582,25 +606,39 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
     finally:
         assert switch([ARM], ["pos_joint_traj_controller"], strict, False, 0.0).ok
     assert states()[ARM] == "running"
-    # The velocity group controller: switched on, its command moves the joints at that speed.
+    # The velocity group controller: switched on, its command moves the joints at that speed. Everything is
+    # judged on the node's simulated time (the joint states' stamps), never on this client's clock, which lags.
+    from rosgraph_msgs.msg import Log
+    from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
     command = rospy.Publisher("/joint_group_vel_controller/command", Float64MultiArray, queue_size=1)
     wait_for(lambda: command.get_num_connections(), 20, "the velocity command subscriber")
+    log = Latest(rospy, "/rosout", Log, keep=True)
     assert switch(["joint_group_vel_controller"], [ARM], strict, False, 0.0).ok
     try:
-        before = _positions(ros)[arm[0]]
-        command.publish(Float64MultiArray(data=[0.5]))  # wrong size: refused
-        rospy.sleep(0.5)
+        before = _at_rest(ros, arm)[arm[0]]
+
+        def refused() -> bool:  # published until the node says it ignored it: it surely arrived
+            command.publish(Float64MultiArray(data=[0.5]))  # wrong size
+            return any("command: 1 values" in m.msg and m.name.endswith("svhdesc_sim") for m in log.all)
+
+        wait_for(refused, 60, "the wrong-size command's refusal", period=0.2)
         assert abs(_positions(ros)[arm[0]] - before) < 2e-3
-        start = rospy.Time.now().to_sec()
+        track = Latest(rospy, "/joint_states", JointState, keep=True)
         command.publish(Float64MultiArray(data=[0.2, 0, 0, 0, 0, 0]))
-        rospy.sleep(1.0)
+        wait_for(lambda: _positions(ros)[arm[0]] - before > 0.3, 120, "the arm to turn 0.3 rad")
         command.publish(Float64MultiArray(data=[0.0] * 6))
-        elapsed = rospy.Time.now().to_sec() - start
-        rospy.sleep(0.5)
-        moved = _positions(ros)[arm[0]] - before
-        assert moved == pytest.approx(0.2 * elapsed, abs=0.05), (moved, elapsed)
+        stopped = _at_rest(ros, arm)[arm[0]]  # and the zero command stops it
+        track.subscriber.unregister()
+        samples = [(m.header.stamp.to_sec(), m.position[list(m.name).index(arm[0])]) for m in track.all]
+        # The steady part of the motion, past the servo's start and before the stop command went out.
+        steady = np.array([(t, q) for t, q in samples if before + 0.1 < q < before + 0.28])
+        assert len(steady) > 10, samples
+        speed = np.polyfit(steady[:, 0], steady[:, 1], 1)[0]
+        assert speed == pytest.approx(0.2, abs=0.01), speed
+        assert stopped - before > 0.3
     finally:
+        log.subscriber.unregister()
         assert switch([ARM], ["joint_group_vel_controller"], strict, False, 0.0).ok
     assert states()["joint_group_vel_controller"] == "stopped"

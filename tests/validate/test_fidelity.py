@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +14,7 @@ from svhdesc.validate.collision_fidelity import check_collision_fidelity
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import load_pair
 from svhdesc.validate.range_of_motion import check_range_of_motion
-from tests.support import REPO, VARIANTS, VENDOR_SVH
+from tests.support import REPO, VARIANTS, VENDOR_SVH, run_cli
 
 GENERATED = REPO / "generated"
 OPTIONS = Options(vendor_meshes=VENDOR_SVH)
@@ -104,9 +102,9 @@ def test_inflated_palm_hull_appears_in_collision_fidelity(tmp_path: Path) -> Non
 def test_missing_vendor_meshes_are_reported_not_skipped_silently(tmp_path: Path) -> None:
     source = GENERATED / "svh_right"
     report = tmp_path / "report.json"
-    args = [sys.executable, "-m", "svhdesc.cli", "validate", "--urdf", str(source / "svh_right.urdf")]
-    args += ["--mjcf", str(source / "svh_right.xml"), "--checks", "collision_fidelity", "--json", str(report)]
-    result = subprocess.run([*args, "--vendor-meshes", str(tmp_path)], cwd=REPO, capture_output=True, text=True)
+    args = ["validate", "--urdf", str(source / "svh_right.urdf"), "--mjcf", str(source / "svh_right.xml")]
+    args += ["--checks", "collision_fidelity", "--json", str(report), "--vendor-meshes", str(tmp_path)]
+    result = run_cli(*args)
     assert result.returncode == 1
     assert "skipped: vendor meshes not found" in result.stdout
     (check,) = json.loads(report.read_text())["variants"][0]["checks"]

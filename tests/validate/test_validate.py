@@ -8,11 +8,9 @@ kinematic samples (--checks, --samples) to keep the suite quick; one run exercis
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import struct
 import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -20,7 +18,7 @@ import mujoco
 import pytest
 from lxml import etree
 
-from tests.support import REPO, VARIANTS
+from tests.support import REPO, VARIANTS, run_cli
 
 VARIANT = "svh_right"
 SOURCE = REPO / "generated" / VARIANT
@@ -33,12 +31,6 @@ pytestmark = pytest.mark.skipif(
 )
 
 Edit = Callable[[etree._ElementTree], None]
-
-
-def run(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "svhdesc.cli", *args], cwd=REPO, capture_output=True, text=True, timeout=600, env=env
-    )
 
 
 def faulty_copy(tmp_path: Path, urdf_edit: Edit | None = None, mjcf_edit: Edit | None = None) -> tuple[Path, Path]:
@@ -58,7 +50,8 @@ def validate_pair(
     urdf: Path, mjcf: Path, tmp_path: Path, *extra: str
 ) -> tuple[subprocess.CompletedProcess[str], dict[str, dict]]:
     report = tmp_path / "report.json"
-    result = run("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--json", str(report), *extra)
+    args = ("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--json", str(report), *extra)
+    result = run_cli(*args, in_process=True)  # no interpreter start for each of the many faults
     checks = {}
     if report.is_file():
         checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
@@ -224,7 +217,7 @@ def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
     from svhdesc.validate import CHECK_NAMES
 
     report, plots = tmp_path / "report.json", tmp_path / "plots"
-    result = run("validate", variant, "--json", str(report), "--plots", str(plots))
+    result = run_cli("validate", variant, "--json", str(report), "--plots", str(plots))
     checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
     assert list(checks) == list(CHECK_NAMES)
     assert all(name in result.stdout for name in CHECK_NAMES)
@@ -244,13 +237,13 @@ def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
 def test_missing_tools_are_not_a_pass(tmp_path: Path) -> None:
     """Without check_urdf and ign on PATH: 'not run', exit 1; --allow-missing-tools lets them through."""
     urdf, mjcf = SOURCE / f"{VARIANT}.urdf", SOURCE / f"{VARIANT}.xml"
-    env = dict(os.environ, PATH=str(tmp_path))  # nothing to find there
+    env = {"PATH": str(tmp_path)}  # nothing to find there
     args = ("validate", "--urdf", str(urdf), "--mjcf", str(mjcf), "--checks", "urdfdom,sdformat")
-    result = run(*args, env=env)
+    result = run_cli(*args, env=env, in_process=True)
     assert result.returncode == 1
     assert "NOT RUN" in result.stdout and "apt-get install" in result.stdout
     assert "urdfdom, sdformat" in result.stderr
-    assert run(*args, "--allow-missing-tools", env=env).returncode == 0
+    assert run_cli(*args, "--allow-missing-tools", env=env, in_process=True).returncode == 0
 
 
 @pytest.mark.parametrize(
@@ -262,7 +255,7 @@ def test_missing_tools_are_not_a_pass(tmp_path: Path) -> None:
     ],
 )
 def test_bad_input_exits_2(args: tuple[str, ...], message: str) -> None:
-    result = run("validate", *args)
+    result = run_cli("validate", *args, in_process=True)
     assert result.returncode == 2
     assert message in result.stderr
 
@@ -270,7 +263,7 @@ def test_bad_input_exits_2(args: tuple[str, ...], message: str) -> None:
 def test_help_names_every_check() -> None:
     from svhdesc.validate import CHECK_NAMES, GROUPS
 
-    text = " ".join(run("validate", "--help").stdout.split())
+    text = " ".join(run_cli("validate", "--help", in_process=True).stdout.split())
     for name in (*CHECK_NAMES, *GROUPS):
         assert name in text
 
@@ -287,13 +280,13 @@ def test_render_writes_png_of_the_requested_size(tmp_path: Path) -> None:
     if not available_backends():
         pytest.skip("no offscreen OpenGL backend loads here (EGL: libegl1 libgl1-mesa-dri; OSMesa: libosmesa6)")
     out = tmp_path / "hand.png"
-    result = run("render", VARIANT, "--out", str(out), "--keyframe", "test", "--size", "320x240")
+    result = run_cli("render", VARIANT, "--out", str(out), "--keyframe", "test", "--size", "320x240")
     assert result.returncode == 0, result.stderr
     assert out.stat().st_size > 1000
     assert _png_size(out) == (320, 240)
 
 
 def test_render_rejects_unknown_keyframe(tmp_path: Path) -> None:
-    result = run("render", VARIANT, "--out", str(tmp_path / "x.png"), "--keyframe", "nope")
+    result = run_cli("render", VARIANT, "--out", str(tmp_path / "x.png"), "--keyframe", "nope")
     assert result.returncode == 2
     assert "no keyframe 'nope'" in result.stderr

@@ -6,30 +6,33 @@ import hashlib
 import json
 import os
 import random
-import shutil
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 import trimesh
 
 from svhdesc.compiler.build.outdir import PAUSE_ENV, STAGING_PREFIX, recover
-from tests.support import REPO, TESTS
-
-MINI = TESTS / "data" / "mini"
+from tests.support import REPO, run_cli
 
 
-def project(tmp_path: Path, variants: int = 2, collision: str = "{mode: hull}") -> Path:
-    """The mini robot with ``variants`` identical variants (so a swap has a first and a second)."""
-    root = tmp_path / "mini"
-    shutil.copytree(MINI, root)
-    text = (root / "mini.yaml").read_text().replace("collision: {mode: hull}", f"collision: {collision}")
-    extra = "".join(f"  mini_{i}:\n    xacro: mini.xacro\n" for i in range(1, variants))
-    (root / "mini.yaml").write_text(text + extra)
-    return root
+@pytest.fixture
+def mini(project: Callable[..., Path]) -> Callable[..., Path]:
+    """``mini(variants, collision)``: a copy of the mini robot with ``variants`` identical variants (so a swap has a
+    first and a second)."""
+
+    def copy(variants: int = 2, collision: str = "{mode: hull}") -> Path:
+        root = project("mini")
+        text = (root / "mini.yaml").read_text().replace("collision: {mode: hull}", f"collision: {collision}")
+        extra = "".join(f"  mini_{i}:\n    xacro: mini.xacro\n" for i in range(1, variants))
+        (root / "mini.yaml").write_text(text + extra)
+        return root
+
+    return copy
 
 
 def start(root: Path, out: Path, *args: str, env: dict[str, str] | None = None) -> subprocess.Popen[str]:
@@ -43,10 +46,13 @@ def start(root: Path, out: Path, *args: str, env: dict[str, str] | None = None) 
     )
 
 
-def build(root: Path, out: Path, *args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    process = start(root, out, *args, env=env)
-    stdout, stderr = process.communicate(timeout=300)
-    return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+def build(
+    root: Path, out: Path, *args: str, env: dict[str, str] | None = None, own_process: bool = False
+) -> subprocess.CompletedProcess[str]:
+    """A build nobody kills: in this process (an interpreter start costs more than the mini robot's build), or in
+    ``own_process`` where its warnings are counted (here another test's garbage may warn meanwhile)."""
+    config = ("--config", str(root / "mini.yaml"), "--out", str(out))
+    return run_cli("build", *config, *args, env=env, in_process=not own_process)
 
 
 def complete(directory: Path) -> str:
@@ -69,8 +75,10 @@ def wait_for(process: subprocess.Popen[str], text: str) -> None:
 
 
 @pytest.mark.slow
-def test_sigkill_inside_the_swap_leaves_whole_variants_and_the_next_build_cleans_up(tmp_path: Path) -> None:
-    root, out = project(tmp_path), tmp_path / "out"
+def test_sigkill_inside_the_swap_leaves_whole_variants_and_the_next_build_cleans_up(
+    tmp_path: Path, mini: Callable[..., Path]
+) -> None:
+    root, out = mini(), tmp_path / "out"
     assert build(root, out).returncode == 0
     assert {complete(out / "mini"), complete(out / "mini_1")} == {"1"}
     (root / "mini.yaml").write_text((root / "mini.yaml").read_text().replace("kp: 1.0", "kp: 2.0"))
@@ -100,8 +108,8 @@ def test_recover_puts_back_a_variant_moved_aside_by_the_rename_fallback(tmp_path
 
 
 @pytest.mark.slow
-def test_concurrent_builds_into_one_out_serialise(tmp_path: Path) -> None:
-    root, out = project(tmp_path), tmp_path / "out"
+def test_concurrent_builds_into_one_out_serialise(tmp_path: Path, mini: Callable[..., Path]) -> None:
+    root, out = mini(), tmp_path / "out"
     release = tmp_path / "release"
     first = start(root, out, env={PAUSE_ENV: str(release)})
     wait_for(first, "pausing")  # holds the lock
@@ -140,9 +148,9 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
-def test_decomposition_workers_die_with_a_killed_build(tmp_path: Path) -> None:
+def test_decomposition_workers_die_with_a_killed_build(tmp_path: Path, mini: Callable[..., Path]) -> None:
     params = "{mode: decompose, params: {threshold: 0.02, max_convex_hull: -1, resolution: 4000}}"
-    root, out = project(tmp_path, variants=1, collision=params), tmp_path / "out"
+    root, out = mini(variants=1, collision=params), tmp_path / "out"
     # A second, different collision mesh: two decompositions, so they run in a pool of two workers.
     trimesh.creation.icosphere(subdivisions=3, radius=0.02).export(root / "ball.stl")
     xacro = root / "mini.xacro"
@@ -165,12 +173,12 @@ def test_decomposition_workers_die_with_a_killed_build(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None:
+def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path, mini: Callable[..., Path]) -> None:
     params = "{mode: decompose, params: {threshold: 0.1, max_convex_hull: 2, resolution: 500}}"
-    root = project(tmp_path, variants=1, collision=params)
+    root = mini(variants=1, collision=params)
     blocker = tmp_path / "cache-file"
     blocker.write_text("a file where the cache directory should be")
-    result = build(root, tmp_path / "out", env={"SVHDESC_CACHE": str(blocker)})
+    result = build(root, tmp_path / "out", env={"SVHDESC_CACHE": str(blocker)}, own_process=True)
     assert result.returncode == 0, result.stderr
     warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 1 and "building without caching" in warnings[0], result.stderr
@@ -193,8 +201,8 @@ def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None
 
 
 @pytest.mark.parametrize("content", [b"[1, 2]", b'{"outputs": 5}', b"\xff\xfe\x00", b'{"decompositions": {"k": 7}}'])
-def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: bytes) -> None:
-    root, out = project(tmp_path, variants=1), tmp_path / "out"
+def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: bytes, mini: Callable[..., Path]) -> None:
+    root, out = mini(variants=1), tmp_path / "out"
     assert build(root, out).returncode == 0
     good = (out / "mini" / "manifest.json").read_bytes()
     (out / "mini" / "manifest.json").write_bytes(content)
@@ -204,8 +212,8 @@ def test_a_damaged_manifest_means_rebuild_not_crash(tmp_path: Path, content: byt
 
 
 @pytest.mark.slow
-def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path) -> None:
-    root, out = project(tmp_path), tmp_path / "out"
+def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path, mini: Callable[..., Path]) -> None:
+    root, out = mini(), tmp_path / "out"
     assert build(root, out).returncode == 0
     rng = random.Random(8)
     kp = 1.0
@@ -224,16 +232,16 @@ def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path
     assert {complete(out / "mini"), complete(out / "mini_1")} == {f"{kp:g}"}
 
 
-def test_a_full_cache_warns_once_and_the_build_goes_on(tmp_path: Path) -> None:
+def test_a_full_cache_warns_once_and_the_build_goes_on(tmp_path: Path, mini: Callable[..., Path]) -> None:
     params = "{mode: decompose, params: {threshold: 0.1, max_convex_hull: 2, resolution: 500}}"
-    root = project(tmp_path, variants=1, collision=params)
+    root = mini(variants=1, collision=params)
     cache = tmp_path / "cache"
     cache.mkdir()
     if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4k", "tmpfs", str(cache)], capture_output=True).returncode:
         pytest.skip("cannot mount a tmpfs here (needs root)")
     try:
         (cache / "filler").write_bytes(b"x" * 4096)  # the cache's filesystem is now full
-        result = build(root, tmp_path / "out", env={"SVHDESC_CACHE": str(cache)})
+        result = build(root, tmp_path / "out", env={"SVHDESC_CACHE": str(cache)}, own_process=True)
     finally:
         subprocess.run(["umount", "-l", str(cache)], check=False)
     assert result.returncode == 0, result.stderr

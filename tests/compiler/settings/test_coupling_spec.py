@@ -22,13 +22,12 @@ GOOD_CHANNELS = """channels:
 
 
 def robot(upper: float = 2.0) -> Robot:
-    names = ["base", "a", "b", "c", "d"]
+    """A chain base - l0 - l1 - l2 - l3 through the joints h_A, h_B (the channels), h_c and h_d."""
     joints = [
         Joint(f"h_{n}", "revolute", "base" if i == 0 else f"l{i - 1}", f"l{i}", lower=0.0, upper=upper)
         for i, n in enumerate(["A", "B", "c", "d"])
     ]
     links = [Link("base")] + [Link(f"l{i}") for i in range(4)]
-    assert len(names) == len(links)
     return Robot("toy", tuple(links), tuple(joints), "base")
 
 
