@@ -172,7 +172,7 @@ def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Pa
         ("base_link", "tool0") if name == "ur5" else ("link_base", "link6")
     )
     urdf = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
-    up = {j.find("child").get("link"): j for j in urdf.iter("joint")}
+    up = {j.find("child").get("link"): j for j in urdf.iterfind("joint")}
     link, spanned = chain.get("tip_link"), []
     while link != chain.get("base_link"):
         joint = up[link]  # a KeyError: the base is not above the tip

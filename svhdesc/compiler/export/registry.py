@@ -24,8 +24,8 @@ from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
 from svhdesc.compiler.export.ros import export_connector, export_launch, export_node_script
 from svhdesc.compiler.export.urdf import export_urdf
 from svhdesc.compiler.stages.assets import Assets
-from svhdesc.compiler.stages.batch_sizing import sample_capacities
-from svhdesc.compiler.stages.collision_matrix import collision_matrix
+from svhdesc.compiler.stages.batch_sizing import cached_capacities
+from svhdesc.compiler.stages.collision_matrix import cached_collision_matrix
 from svhdesc.ir import Robot
 from svhdesc.model import BATCH_SCENE_FILE, NODE_SCRIPT, batch_model_file
 
@@ -78,7 +78,8 @@ def _batch_model(built: Built) -> bytes:
     robot = built.robot
     scene = batch.export_batch_scene(robot)
     unsized = batch.export_batch(robot, None)
-    capacities = sample_capacities(scene, batch_model_file(robot.name), unsized, built.directory / "assets")
+    assets = built.directory / "assets"
+    capacities = cached_capacities(scene, batch_model_file(robot.name), unsized, assets)
     return batch.export_batch(robot, capacities)
 
 
@@ -90,7 +91,7 @@ OUTPUTS: tuple[Output, ...] = (
     Output("config/connector.yaml", lambda b: export_connector(b.robot, b.damping)),
     Output("launch/sim.launch", lambda b: export_launch(b.robot, f"{b.robot.name}.urdf")),
     Output(f"scripts/{NODE_SCRIPT}", lambda b: export_node_script(b.robot), executable=True),
-    Output("config/{robot}.srdf", lambda b: export_srdf(b.robot, collision_matrix(b.robot, b.assets)), _moveit),
+    Output("config/{robot}.srdf", lambda b: export_srdf(b.robot, cached_collision_matrix(b.robot, b.assets)), _moveit),
     Output("config/kinematics.yaml", lambda b: export_kinematics(b.robot), _moveit),
     Output("config/joint_limits.yaml", lambda b: export_joint_limits(b.robot), _moveit),
     Output("config/moveit_controllers.yaml", lambda b: export_moveit_controllers(b.robot), _moveit),

@@ -13,12 +13,14 @@ Warp's default broadphase tests (see broadphase_candidates), evaluated on MuJoCo
 from __future__ import annotations
 
 import tempfile
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from svhdesc.compiler.export.batch import Capacities
+from svhdesc.compiler.stages.remembered import cache_dir, content_key, remembered
 
 ROLLOUT_S = 1.0
 RANDOM_ROLLOUTS = 4
@@ -131,6 +133,19 @@ def _boxes_overlap(
     radius1 = np.abs(np.einsum("nij,nik->njk", mat1, axes) * aabb1[:, 1, :, None]).sum(axis=1)
     radius2 = np.abs(np.einsum("nij,nik->njk", mat2, axes) * aabb2[:, 1, :, None]).sum(axis=1)
     return (radius1 + radius2 + margin[:, None] >= gap).all(axis=1)
+
+
+def cached_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
+    """``sample_capacities``, remembered by content (``svhdesc.compiler.stages.remembered``)."""
+    plan = repr((ROLLOUT_S, RANDOM_ROLLOUTS, SEED, CHUNK)).encode()
+    files = {path.name: path.read_bytes() for path in assets.iterdir()}
+    return remembered(
+        cache_dir("capacities"),
+        content_key((plan, scene_xml, model_xml), files),
+        lambda: sample_capacities(scene_xml, model_name, model_xml, assets),
+        asdict,
+        lambda entry: Capacities(**entry),
+    )
 
 
 def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:

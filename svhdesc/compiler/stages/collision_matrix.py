@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.stages.remembered import cache_dir, content_key, remembered
 from svhdesc.ir import Robot
 
 SAMPLES = 5000  # the Setup Assistant draws 10000; with the NEAR rule 2000 gave the same matrix
@@ -124,3 +125,19 @@ def collision_matrix(
             elif touching.get(ids, 0) >= ALWAYS_FRACTION * samples:
                 reasons[pair_key] = "Always"
     return dict(sorted(reasons.items(), key=lambda item: (order[item[0][0]], order[item[0][1]])))
+
+
+def cached_collision_matrix(robot: Robot, assets: Assets) -> dict[tuple[str, str], str]:
+    """``collision_matrix``, remembered by content (``svhdesc.compiler.stages.remembered``): the MJCF states every
+    joint, limit, coupling and geom it samples."""
+    from svhdesc.compiler.export.mjcf import export_mjcf
+
+    plan = repr((SAMPLES, SEED, NEAR, ALWAYS_FRACTION)).encode()
+    names = repr([link.name for link in robot.links]).encode()  # the order pairs are written in
+    return remembered(
+        cache_dir("collision_matrix"),
+        content_key((plan, names, export_mjcf(robot)), assets.files),
+        lambda: collision_matrix(robot, assets),
+        lambda matrix: [[a, b, reason] for (a, b), reason in matrix.items()],
+        lambda entry: {(a, b): reason for a, b, reason in entry},
+    )

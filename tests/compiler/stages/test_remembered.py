@@ -1,0 +1,91 @@
+"""Sampled results (batch capacities, MoveIt's collision matrix) are remembered by content: a hit gives the same
+result without sampling, any changed input is a miss, and a broken entry is sampled again."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from svhdesc.compiler.stages import batch_sizing, collision_matrix
+from svhdesc.compiler.stages.remembered import content_key, remembered
+from tests.support import REPO, TESTS
+
+VARIANT = REPO / "generated" / "svh_right"
+
+
+def test_key_covers_every_part_and_every_asset() -> None:
+    base = content_key((b"model", b"scene"), {"a.stl": b"1", "b.stl": b"2"})
+    assert base == content_key((b"model", b"scene"), {"b.stl": b"2", "a.stl": b"1"})  # order of assets is no input
+    assert base != content_key((b"model!", b"scene"), {"a.stl": b"1", "b.stl": b"2"})
+    assert base != content_key((b"scene", b"model"), {"a.stl": b"1", "b.stl": b"2"})
+    assert base != content_key((b"model", b"scene"), {"a.stl": b"1", "b.stl": b"3"})
+    assert base != content_key((b"model", b"scene"), {"a.stl": b"1", "c.stl": b"2"})
+
+
+def test_hit_miss_and_broken_entry(tmp_path: Path) -> None:
+    calls: list[int] = []
+
+    def compute() -> dict[str, int]:
+        calls.append(1)
+        return {"n": len(calls)}
+
+    def ask(key: str) -> dict[str, int]:
+        return remembered(tmp_path, key, compute, dict, dict)
+
+    assert ask("k1") == {"n": 1} and ask("k1") == {"n": 1} and len(calls) == 1  # hit: not computed again
+    assert ask("k2") == {"n": 2}  # another key: computed
+    (tmp_path / "k1.json").write_text("{not json")
+    assert ask("k1") == {"n": 3} and ask("k1") == {"n": 3}  # broken: computed again and rewritten
+    assert not list(tmp_path.glob("*.tmp"))
+    unwritable = tmp_path / "file"
+    unwritable.write_text("")
+    assert remembered(unwritable / "cache", "k", compute, dict, dict) == {"n": 4}  # no cache: still a result
+
+
+def test_batch_capacities_are_sampled_once_per_content(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path))
+    sampled: list[bytes] = []
+    real = batch_sizing.sample_capacities
+
+    def counting(scene: bytes, name: str, model: bytes, assets: Path) -> object:
+        sampled.append(model)
+        return real(scene, name, model, assets)
+
+    monkeypatch.setattr(batch_sizing, "sample_capacities", counting)
+    scene = (VARIANT / "scene_batch.xml").read_bytes()
+    model = (VARIANT / "svh_right_batch.xml").read_bytes()
+    assets = VARIANT / "assets"
+    first = batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model, assets)
+    assert batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model, assets) == first
+    assert len(sampled) == 1
+    # One more line in the model: a different model, sampled again.
+    batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model + b"\n", assets)
+    assert len(sampled) == 2
+
+
+def test_collision_matrix_entry_is_the_computed_matrix(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cached matrix is the computed one, pair order included (the SRDF writes pairs in this order); a changed
+    robot is computed again."""
+    from dataclasses import replace
+
+    from svhdesc.compiler.build import pipeline
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.decompose.cache import HullCache
+    from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.settings.config import load_config
+
+    monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path / "cache"))
+    hulls = HullSource(HullCache(tmp_path / "hulls"))
+    (compiled,) = pipeline.compile_variants(
+        load_config(TESTS / "data" / "mini" / "mini.yaml"), [], {}, hulls, Timings()
+    )
+    computed: list[dict[tuple[str, str], str]] = []
+    real = collision_matrix.collision_matrix
+    monkeypatch.setattr(collision_matrix, "collision_matrix", lambda *a: computed.append(real(*a)) or computed[-1])
+    fresh = collision_matrix.cached_collision_matrix(compiled.robot, compiled.assets)
+    again = collision_matrix.cached_collision_matrix(compiled.robot, compiled.assets)
+    assert len(computed) == 1 and fresh and list(again.items()) == list(fresh.items())
+    moved = replace(compiled.robot, joints=tuple(replace(j, upper=j.upper * 0.5) for j in compiled.robot.joints))
+    collision_matrix.cached_collision_matrix(moved, compiled.assets)
+    assert len(computed) == 2
