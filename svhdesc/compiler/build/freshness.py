@@ -17,7 +17,7 @@ from svhdesc.compiler.build import manifest as manifest_file
 from svhdesc.compiler.settings.config import Variant
 
 TOOLS = ("svhdesc", "xacro", "lxml", "numpy", "trimesh", "pycollada", "scipy", "coacd", "manifold3d", "mujoco")
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[2]  # svhdesc/
 
 
 def sha256(data: bytes) -> str:
@@ -28,20 +28,26 @@ def sha256(data: bytes) -> str:
 def code_fingerprint() -> str:
     """Hash of svhdesc's own source: a code change must rebuild even at the same version number.
 
-    Code that reads models and does not make them (the validator, the runtime subpackages, the CLI and the
-    import API) is left out: changing it must not change the models' manifests.
+    The compiler wing and the shared modules it imports count; code that reads models and does not make them (the
+    validator, the runtime wing, the CLI and the import API) is left out: changing it must not change the models'
+    manifests.
     """
+    return fingerprint_of(PACKAGE_DIR)
+
+
+def fingerprint_of(package: Path) -> str:
     digest = hashlib.sha256()
-    for path in sorted(p for p in PACKAGE_DIR.rglob("*.py") if _makes_models(p.relative_to(PACKAGE_DIR))):
-        digest.update(path.relative_to(PACKAGE_DIR).as_posix().encode() + b"\0" + path.read_bytes())
+    for path in sorted(p for p in package.rglob("*.py") if makes_models(p.relative_to(package))):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
 
-RUNTIME = {"validate", "loaders", "sim", "ros", "compare", "wireloop", "cli.py", "__init__.py", "extras.py", "paths.py"}
+RUNTIME = {"validate", "loaders", "sim", "ros", "plan", "compare", "wireloop", "batch"}
+FRONT = {"cli.py", "__init__.py", "extras.py", "paths.py", "offscreen.py"}
 
 
-def _makes_models(relative: Path) -> bool:
-    return relative.parts[0] not in RUNTIME
+def makes_models(relative: Path) -> bool:
+    return relative.parts[0] not in RUNTIME | FRONT
 
 
 def svhdesc_version() -> str:
