@@ -13,12 +13,14 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -86,6 +88,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         if item.get_closest_marker("xdist_group") is None:
             if "vendor_build" in getattr(item, "fixturenames", ()):
                 item.add_marker(pytest.mark.xdist_group("vendor_build"))
+            elif "validated" in getattr(item, "fixturenames", ()):
+                item.add_marker(pytest.mark.xdist_group("validated"))
             elif group := _module_fixture_group(item):
                 item.add_marker(pytest.mark.xdist_group(group))
 
@@ -96,6 +100,27 @@ def session_build() -> Path:
     from .support import built
 
     return built()
+
+
+@pytest.fixture(scope="session")
+def validated(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple[Any, dict[str, Any], Path]]:
+    """``svhdesc validate VARIANT --json --plots`` of a shipped variant, run once per run and variant (its users share
+    an xdist group): (the CLI's result, its checks by name, the plots folder). The full run's checks are the ones
+    the fidelity and grasp tests assert on, so they read them here instead of running them again."""
+    from .support import run_cli
+
+    runs: dict[str, tuple[Any, dict[str, Any], Path]] = {}
+
+    def run(variant: str) -> tuple[Any, dict[str, Any], Path]:
+        if variant not in runs:
+            folder = tmp_path_factory.mktemp(f"validated-{variant}")
+            report, plots = folder / "report.json", folder / "plots"
+            result = run_cli("validate", variant, "--json", str(report), "--plots", str(plots))
+            checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
+            runs[variant] = (result, checks, plots)
+        return runs[variant]
+
+    return run
 
 
 # The vendor build is about compiling the upstream inputs (their xacro, meshes and limits) with this project's spec,

@@ -164,12 +164,17 @@ def test_example_loads_in_every_loader(example: tuple[str, Path, Path]) -> None:
 
 def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Path, Path]) -> None:
     """MoveIt's arm group spans exactly the robot's arm joints: base_link..tool0 where the robot has them
-    (ROS-Industrial's names, the UR5), else the first arm joint's parent to the last one's child (the xArm)."""
+    (ROS-Industrial's names, the UR5 + SVH), else the first arm joint's parent to the last one's child (the xArm).
+    A robot without a hand gets no MoveIt configuration yet (it plans arm and hand)."""
     name, config, folder = example
+    if name == "ur5":
+        assert not (folder / "config" / "ur5.srdf").exists()
+        folder, name = REPO / "generated" / "ur5_svh_right", "ur5_svh_right"
+        config = REPO / "config" / "svhdesc.yaml"
     srdf = etree.parse(str(folder / "config" / f"{folder.name}.srdf")).getroot()
     chain = srdf.find("group[@name='manipulator']/chain")
     assert (chain.get("base_link"), chain.get("tip_link")) == (
-        ("base_link", "tool0") if name == "ur5" else ("link_base", "link6")
+        ("base_link", "tool0") if name == "ur5_svh_right" else ("link_base", "link6")
     )
     urdf = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
     up = {j.find("child").get("link"): j for j in urdf.iterfind("joint")}
@@ -180,5 +185,5 @@ def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Pa
             spanned.append(joint.get("name"))
         link = joint.find("parent").get("link")
     assert spanned[::-1] == yaml.safe_load(config.read_text())["arm"]["joints"]
-    if name != "ur5":
+    if name != "ur5_svh_right":
         assert srdf.find("end_effector").get("parent_link") == chain.get("tip_link")

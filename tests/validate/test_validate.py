@@ -13,6 +13,7 @@ import struct
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import pytest
@@ -211,14 +212,12 @@ def test_unmodified_pair_passes_the_static_checks(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_built_variant_passes_every_check(tmp_path: Path, variant: str) -> None:
+def test_built_variant_passes_every_check(variant: str, validated: Callable[[str], Any]) -> None:
     """CI's `svhdesc validate` over every committed variant, the system tools included: every check present in table
     and JSON, every one passing (exit 0), contact figures for every joint, plots written."""
     from svhdesc.validate import CHECK_NAMES
 
-    report, plots = tmp_path / "report.json", tmp_path / "plots"
-    result = run_cli("validate", variant, "--json", str(report), "--plots", str(plots))
-    checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
+    result, checks, plots = validated(variant)
     assert list(checks) == list(CHECK_NAMES)
     assert all(name in result.stdout for name in CHECK_NAMES)
     failing = [name for name, c in checks.items() if c["status"] != "pass"]

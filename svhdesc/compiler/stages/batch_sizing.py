@@ -137,7 +137,7 @@ def _boxes_overlap(
 
 def cached_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
     """``sample_capacities``, remembered by content (``svhdesc.compiler.stages.remembered``)."""
-    plan = repr((ROLLOUT_S, RANDOM_ROLLOUTS, SEED, CHUNK)).encode()
+    plan = repr((ROLLOUT_S, RANDOM_ROLLOUTS, SEED, CHUNK)).encode() + Path(__file__).read_bytes()  # and this code
     files = {path.name: path.read_bytes() for path in assets.iterdir()}
     return remembered(
         cache_dir("capacities"),

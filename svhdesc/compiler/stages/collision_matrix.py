@@ -16,6 +16,7 @@ pair sampled near-but-apart stays checked.
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -132,7 +133,7 @@ def cached_collision_matrix(robot: Robot, assets: Assets) -> dict[tuple[str, str
     joint, limit, coupling and geom it samples."""
     from svhdesc.compiler.export.mjcf import export_mjcf
 
-    plan = repr((SAMPLES, SEED, NEAR, ALWAYS_FRACTION)).encode()
+    plan = repr((SAMPLES, SEED, NEAR, ALWAYS_FRACTION)).encode() + Path(__file__).read_bytes()  # and this code
     names = repr([link.name for link in robot.links]).encode()  # the order pairs are written in
     return remembered(
         cache_dir("collision_matrix"),

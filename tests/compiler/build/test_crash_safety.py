@@ -188,7 +188,7 @@ def test_a_broken_cache_warns_once_and_the_build_goes_on(tmp_path: Path, mini: C
     # An entry that passes its checksums but does not parse as STL is rebuilt, not a crash.
     cache = tmp_path / "cache"
     assert build(root, tmp_path / "warm", env={"SVHDESC_CACHE": str(cache)}).returncode == 0
-    [entry] = [p for p in cache.iterdir() if p.is_dir()]
+    [entry] = [p for p in cache.iterdir() if (p / "entry.json").is_file()]  # hull entries (not capacities/...)
     meta = json.loads((entry / "entry.json").read_text())
     garbage = b"not an stl"
     (entry / meta["files"][0]["name"]).write_bytes(garbage)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from svhdesc.compiler.export.batch import Capacities
 from svhdesc.compiler.stages import batch_sizing, collision_matrix
 from svhdesc.compiler.stages.remembered import content_key, remembered
 from tests.support import REPO, TESTS
@@ -46,11 +47,10 @@ def test_hit_miss_and_broken_entry(tmp_path: Path) -> None:
 def test_batch_capacities_are_sampled_once_per_content(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path))
     sampled: list[bytes] = []
-    real = batch_sizing.sample_capacities
 
-    def counting(scene: bytes, name: str, model: bytes, assets: Path) -> object:
-        sampled.append(model)
-        return real(scene, name, model, assets)
+    def counting(scene: bytes, name: str, model: bytes, assets: Path) -> Capacities:
+        sampled.append(model)  # the caching is under test, not the sampling: a made-up worst case
+        return Capacities.from_worst_case(10 + len(sampled), 20, 30)
 
     monkeypatch.setattr(batch_sizing, "sample_capacities", counting)
     scene = (VARIANT / "scene_batch.xml").read_bytes()
@@ -60,8 +60,8 @@ def test_batch_capacities_are_sampled_once_per_content(tmp_path: Path, monkeypat
     assert batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model, assets) == first
     assert len(sampled) == 1
     # One more line in the model: a different model, sampled again.
-    batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model + b"\n", assets)
-    assert len(sampled) == 2
+    other = batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model + b"\n", assets)
+    assert len(sampled) == 2 and other != first
 
 
 def test_collision_matrix_entry_is_the_computed_matrix(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
