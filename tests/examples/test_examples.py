@@ -164,17 +164,22 @@ def test_example_loads_in_every_loader(example: tuple[str, Path, Path]) -> None:
 
 def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Path, Path]) -> None:
     """MoveIt's arm group spans exactly the robot's arm joints: base_link..tool0 where the robot has them
-    (ROS-Industrial's names, the UR5 + SVH), else the first arm joint's parent to the last one's child (the xArm).
-    A robot without a hand gets no MoveIt configuration yet (it plans arm and hand)."""
+    (ROS-Industrial's names, the UR5), else the first arm joint's parent to the last one's child (the xArm). The
+    UR5 alone plans its arm only: no hand group, no end effector, its controller the arm's alone."""
     name, config, folder = example
-    if name == "ur5":
-        assert not (folder / "config" / "ur5.srdf").exists()
-        folder, name = REPO / "generated" / "ur5_svh_right", "ur5_svh_right"
-        config = REPO / "config" / "svhdesc.yaml"
     srdf = etree.parse(str(folder / "config" / f"{folder.name}.srdf")).getroot()
     chain = srdf.find("group[@name='manipulator']/chain")
     assert (chain.get("base_link"), chain.get("tip_link")) == (
-        ("base_link", "tool0") if name == "ur5_svh_right" else ("link_base", "link6")
+        ("base_link", "tool0") if name == "ur5" else ("link_base", "link6")
+    )
+    groups = [g.get("name") for g in srdf.iterfind("group")]
+    assert groups == (["manipulator"] if name == "ur5" else ["manipulator", "hand", "arm_hand"])
+    assert {s.get("group") for s in srdf.iterfind("group_state")} == {groups[-1]}
+    controllers = yaml.safe_load((folder / "config" / "moveit_controllers.yaml").read_text())["controller_list"]
+    assert [c["name"] for c in controllers] == (
+        ["scaled_pos_joint_traj_controller"]
+        if name == "ur5"
+        else ["hand_controller", "scaled_pos_joint_traj_controller"]
     )
     urdf = etree.parse(str(folder / f"{folder.name}.urdf")).getroot()
     up = {j.find("child").get("link"): j for j in urdf.iterfind("joint")}
@@ -185,5 +190,5 @@ def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Pa
             spanned.append(joint.get("name"))
         link = joint.find("parent").get("link")
     assert spanned[::-1] == yaml.safe_load(config.read_text())["arm"]["joints"]
-    if name != "ur5_svh_right":
-        assert srdf.find("end_effector").get("parent_link") == chain.get("tip_link")
+    effector = srdf.find("end_effector")
+    assert effector is None if name == "ur5" else effector.get("parent_link") == chain.get("tip_link")

@@ -80,32 +80,34 @@ def passive_joints(robot: Robot) -> list[str]:
 
 
 def planning_groups(robot: Robot) -> list[str]:
-    return [ARM_GROUP, HAND_GROUP, BOTH_GROUP] if arm_joints(robot) else [HAND_GROUP]
+    arm, hand = bool(arm_joints(robot)), bool(robot.channels)
+    return [ARM_GROUP] * arm + [HAND_GROUP] * hand + [BOTH_GROUP] * (arm and hand)
 
 
 def export_srdf(robot: Robot, collisions: Mapping[tuple[str, str], str]) -> bytes:
     root = etree.Element("robot", name=robot.name)
     root.append(etree.Comment(f" {GENERATED} "))
-    arm = arm_joints(robot)
-    base, tip = arm_chain(robot) if arm else (ARM_BASE, ARM_TIP)
-    if arm:
+    groups = planning_groups(robot)
+    base, tip = arm_chain(robot) if ARM_GROUP in groups else (ARM_BASE, ARM_TIP)
+    if ARM_GROUP in groups:
         group = sub(root, "group", name=ARM_GROUP)
         sub(group, "chain", base_link=base, tip_link=tip)
-    group = sub(root, "group", name=HAND_GROUP)
-    for joint in hand_joints(robot):
-        sub(group, "joint", name=joint)
-    if arm:
+    if HAND_GROUP in groups:
+        group = sub(root, "group", name=HAND_GROUP)
+        for joint in hand_joints(robot):
+            sub(group, "joint", name=joint)
+    if BOTH_GROUP in groups:
         group = sub(root, "group", name=BOTH_GROUP)
         sub(group, "group", name=ARM_GROUP)
         sub(group, "group", name=HAND_GROUP)
-    state_group = BOTH_GROUP if arm else HAND_GROUP
+    state_group = groups[-1]  # the widest: arm and hand, else whichever the robot has
     active = [a.joint for a in robot.actuators]
     for keyframe in robot.keyframes:
         values = dict(keyframe.qpos)
         state = sub(root, "group_state", name=keyframe.name, group=state_group)
         for joint in active:
             sub(state, "joint", name=joint, value=num(values[joint]))
-    if arm:
+    if BOTH_GROUP in groups:
         sub(root, "end_effector", name=HAND_GROUP, parent_link=tip, group=HAND_GROUP, parent_group=ARM_GROUP)
     sub(root, "virtual_joint", name="virtual_joint", type="fixed", parent_frame="world", child_link=robot.root)
     for joint in passive_joints(robot):
@@ -142,7 +144,9 @@ def export_joint_limits(robot: Robot) -> bytes:
 
 
 def _controllers(robot: Robot) -> list[tuple[str, list[str], str]]:
-    groups = [(hand_controller(hand_prefix(robot)), [c.joint for c in robot.channels], "hand")]
+    groups = []
+    if robot.channels:
+        groups.append((hand_controller(hand_prefix(robot)), [c.joint for c in robot.channels], "hand"))
     if arm_joints(robot):
         groups.append((ARM_CONTROLLER, arm_joints(robot), "arm"))
     return groups

@@ -19,6 +19,7 @@ from svhdesc.compiler.export.moveit import (
     export_moveit_launch,
     export_ros_controllers,
     export_srdf,
+    planning_groups,
 )
 from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
 from svhdesc.compiler.export.ros import export_connector, export_launch, export_node_script
@@ -60,8 +61,8 @@ def _always(robot: Robot) -> bool:
 
 
 def _moveit(robot: Robot) -> bool:
-    """MoveIt's configuration plans a hand: only a robot with channels gets one."""
-    return bool(robot.channels)
+    """MoveIt's configuration plans an arm, a hand or both: a robot with neither gets none."""
+    return bool(planning_groups(robot))
 
 
 @dataclass(frozen=True)
