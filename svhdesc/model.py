@@ -347,20 +347,21 @@ def couplings(model: Any) -> list[Coupling]:
     return result
 
 
+def mimic_coupling(joint: etree._Element) -> Coupling | None:
+    """A URDF ``<joint>``'s ``<mimic>`` as a Coupling (offset, multiplier); None for a joint without one."""
+    mimic = joint.find("mimic")
+    if mimic is None:
+        return None
+    coeffs = (float(mimic.get("offset", "0")), float(mimic.get("multiplier", "1")))
+    return Coupling(joint.get("name"), mimic.get("joint"), coeffs)
+
+
 def urdf_couplings(urdf: Path) -> list[Coupling]:
     """A URDF's ``<mimic>`` joints, in the URDF's order."""
     from lxml import etree
 
     root = etree.parse(str(urdf)).getroot()
-    return [
-        Coupling(
-            joint.get("name"),
-            mimic.get("joint"),
-            (float(mimic.get("offset", "0")), float(mimic.get("multiplier", "1"))),
-        )
-        for joint in root.iter("joint")
-        if (mimic := joint.find("mimic")) is not None
-    ]
+    return [coupling for joint in root.iter("joint") if (coupling := mimic_coupling(joint)) is not None]
 
 
 # --- The vendor sources as the compiler reads them (checks against the vendor's own geometry) --------------------

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from svhdesc.model import Configuration, Coupling, Model
+from svhdesc.model import Configuration, Coupling, Model, mimic_coupling
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
@@ -102,14 +102,10 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
         links[link.get("name")] = UrdfInertial(mass, xyz, rotation @ tensor @ rotation.T)
     joints = {}
     for joint in root.findall("joint"):
-        origin, axis, limit, mimic = (joint.find(t) for t in ("origin", "axis", "limit", "mimic"))
+        origin, axis, limit = (joint.find(t) for t in ("origin", "axis", "limit"))
         lower = upper = None
         if limit is not None and joint.get("type") != "continuous":
             lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
-        coupling = None
-        if mimic is not None:
-            coeffs = (float(mimic.get("offset", 0.0)), float(mimic.get("multiplier", 1.0)))
-            coupling = Coupling(joint.get("name"), mimic.get("joint"), coeffs)
         joints[joint.get("name")] = UrdfJoint(
             name=joint.get("name"),
             type=joint.get("type"),
@@ -120,7 +116,7 @@ def read_urdf_facts(path: Path) -> UrdfFacts:
             axis=_floats(axis.get("xyz") if axis is not None else None, (1, 0, 0)),
             lower=lower,
             upper=upper,
-            mimic=coupling,
+            mimic=mimic_coupling(joint),
         )
     transmissions = {
         t.get("name", ""): [j.get("name") for j in t.findall("joint")] for t in root.findall("transmission")
