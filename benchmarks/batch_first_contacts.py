@@ -2,7 +2,7 @@
 
     python benchmarks/batch_first_contacts.py
 
-The worlds of tests/test_batch.py's equivalence test (16, random servo targets, seed 7): MuJoCo C steps each
+The worlds of tests/batch/test_env.py's equivalence test (16, random servo targets, seed 7): MuJoCo C steps each
 world of the batch scene until its first contact, then both engines compute the contacts of that same state,
 once with the batch model as built (multiccd off) and once with multiccd on (MuJoCo C 4.0's default). Prints
 per world and setting the contact counts and the angle between the two engines' first contact normals. This

@@ -381,16 +381,37 @@ def envelope(name: str) -> trimesh.Trimesh:
     prisms = []
     for lo, hi, half in runs:
         support = [*half, *half[-2:0:-1]]  # h(-theta) = h(theta): 0 .. 180 degrees, then back to 0
-        angles = np.radians(np.arange(len(support)) * 360.0 / len(support))
-        corners = []
-        for k in range(len(support)):
-            a, b = angles[k], angles[(k + 1) % len(support)]
-            normals = np.array([[np.cos(a), np.sin(a)], [np.cos(b), np.sin(b)]])
-            corners.append(np.linalg.solve(normals, [support[k], support[(k + 1) % len(support)]]))
-        yz = np.array(corners)
+        yz = _polygon(support)
         ends = [np.column_stack([np.full(len(yz), x), yz]) for x in (lo, hi)]
         prisms.append(hull_points(*ends))
     return union(*prisms)
+
+
+def _polygon(support: Sequence[float]) -> np.ndarray:
+    """Corners of the polygon whose side k lies at distance support[k] along direction k * 360 / n degrees.
+
+    Neighbouring sides meet where both side equations hold. numpy's LAPACK solve (OpenBLAS's per-CPU kernels) gave
+    other last bits on an AVX-512 CPU than on an AVX2 one, and the clipping downstream turned that into another
+    triangulation of every fitted part (issue 14); so did a 4-ulp nudge of the directions, so they are not snapped
+    or perturbed: the C library's cos/sin of these angles are the same bits with and without FMA
+    (tests/compiler/build/test_determinism.py runs this script as other CPUs), and the solve is LAPACK's
+    partial-pivoting LU in plain IEEE arithmetic (no FMA), which reproduces the committed meshes' bits."""
+    n = len(support)
+    angles = [math.radians(k * 360.0 / n) for k in range(n)]
+    cos, sin = [math.cos(a) for a in angles], [math.sin(a) for a in angles]
+    corners = []
+    for k in range(n):
+        j = (k + 1) % n
+        corners.append(_solve2((cos[k], sin[k], support[k]), (cos[j], sin[j], support[j])))
+    return np.array(corners, dtype=float)
+
+
+def _solve2(first: tuple[float, float, float], second: tuple[float, float, float]) -> tuple[float, float]:
+    """(y, z) with a * y + b * z = h for both rows (a, b, h): LU with partial pivoting, as LAPACK's getrf/getrs."""
+    (a0, b0, h0), (a1, b1, h1) = (second, first) if abs(second[0]) > abs(first[0]) else (first, second)
+    multiplier = a1 * (1.0 / a0)
+    z = (h1 - multiplier * h0) / (b1 - multiplier * b0)
+    return (h0 - b0 * z) / a0, z
 
 
 def fitted(make: Callable[[], trimesh.Trimesh], name: str) -> Callable[[], trimesh.Trimesh]:

@@ -10,7 +10,7 @@ Gazebo Classic, the engine of thesis Table 5.1, runs ODE. This adapter rebuilds 
   ``self_collide`` defaults to false, so no robot link collides with another (the other engines exclude
   the pairs the MJCF excludes; with the surface as the only other body, only robot-surface pairs matter).
 - Solver: quickstep at 1 ms with Gazebo's ODE defaults (``GAZEBO_ODE``, read from sdformat's physics.sdf and
-  surface.sdf; ``tests/test_compare.py`` checks them against the installed sdformat spec).
+  surface.sdf; ``tests/compare/test_compare.py`` checks them against the installed sdformat spec).
 - Servos: gazebo_ros_control's DefaultRobotHWSim as the generated files configure it. The URDF's
   transmissions declare ``PositionJointInterface``; each command is first saturated by joint_limits_interface
   (PositionJointSaturationHandle: the URDF's position limits, and at most velocity x period from the previous

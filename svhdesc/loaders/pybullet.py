@@ -20,7 +20,7 @@ Solver: the loader raises the client's constraint solver to ``SOLVER_ITERATIONS`
 50, a higher setting is kept). At 50 iterations the gears hold only at small steps: at pybullet's default
 1/240 s step, Thumb_Opposition, Ring and Pinky (the channels with the most geared load) stall up to 0.6 rad short
 of their targets and couplings drift up to 0.1 rad. At 150 they hold within 2e-4 rad at 1/240 s and at 1 ms
-(tests/test_loaders.py::test_pybullet). Calls that reset the client's engine parameters undo it.
+(tests/loaders/test_loaders.py::test_pybullet). Calls that reset the client's engine parameters undo it.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Client side of tests/test_ros_robustness.py, one fresh process per check (rospy binds one master per
+"""Client side of tests/ros/test_robustness.py, one fresh process per check (rospy binds one master per
 process): abuses the node named in the environment's master, then checks it still serves. Exits 0 when
 every assertion held; prints what it measured as one JSON line.
 

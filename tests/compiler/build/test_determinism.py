@@ -3,7 +3,8 @@
 
 No second machine here, so the tests perturb the computation by a few ulps (SVHDESC_PERTURB_ULPS), which is what
 another CPU's kernels would do, and show --check still passes; and they move one written number by 1e-9 of itself,
-which --check must catch.
+which --check must catch. They also run the authoring script and the build as other x86-64 CPUs (OTHER_CPUS): this
+one with numpy's SIMD dispatch, OpenBLAS's kernels and glibc's libm variants held to a lower level.
 """
 
 from __future__ import annotations
@@ -123,3 +124,65 @@ def test_mesh_authoring_agrees_with_the_committed_meshes_when_perturbed(tmp_path
     for path in committed:
         fresh = tmp_path / path.parent.name / path.name
         assert file_difference(fresh, path) is None, f"{path.relative_to(REPO)} differs from the script's output"
+
+
+# x86-64 CPUs of three levels, emulated on this one where it has the level: numpy's dispatch held to it, OpenBLAS
+# told a core of it, glibc's libm without the variants above it. The committed meshes were written on an AVX2
+# machine, and an AVX-512 one (whose OpenBLAS kernels fuse multiply-adds in a 2 x 2 solve) wrote others (issue 14).
+OTHER_CPUS = {
+    "x86-64-v2": {
+        "NPY_ENABLE_CPU_FEATURES": "X86_V2",
+        "OPENBLAS_CORETYPE": "Nehalem",
+        "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX512F,-AVX2,-FMA",
+    },
+    "x86-64-v3": {
+        "NPY_ENABLE_CPU_FEATURES": "X86_V2 X86_V3",
+        "OPENBLAS_CORETYPE": "Haswell",
+        "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX512F",
+    },
+    "x86-64-v4": {"NPY_ENABLE_CPU_FEATURES": "X86_V2 X86_V3 X86_V4", "OPENBLAS_CORETYPE": "SkylakeX"},
+}
+# What each emulated CPU computes with numpy's BLAS and the C library's cos: they must differ between the two.
+KERNELS = """
+import hashlib, math, numpy as np
+from numpy._core._multiarray_umath import __cpu_features__ as features
+a, b = np.random.default_rng(1).random((40, 40)), np.random.default_rng(2).random((40, 40))
+cos = repr([math.cos(k * 7e-4) for k in range(1, 99999)]).encode()
+blas = hashlib.sha256((a @ b).tobytes()).hexdigest()
+print(blas, hashlib.sha256(cos).hexdigest(), features.get("X86_V3"), features.get("X86_V4"))
+"""
+
+
+def _emulating(cpu: str) -> dict[str, str]:
+    from numpy._core._multiarray_umath import __cpu_features__
+
+    if not __cpu_features__.get("X86_V" + cpu[-1]):
+        pytest.skip(f"this CPU is below {cpu}")
+    return OTHER_CPUS[cpu]
+
+
+def test_the_emulated_cpus_compute_differently() -> None:
+    seen = {}
+    for cpu in ("x86-64-v2", "x86-64-v3"):
+        result = subprocess.run(
+            [sys.executable, "-c", KERNELS], capture_output=True, text=True, env={**os.environ, **_emulating(cpu)}
+        )
+        assert result.returncode == 0, result.stderr
+        seen[cpu] = result.stdout.split()
+    (blas_v2, libm_v2, v3_in_v2, _), (blas_v3, libm_v3, _, v4_in_v3) = seen["x86-64-v2"], seen["x86-64-v3"]
+    assert blas_v2 != blas_v3 and libm_v2 != libm_v3
+    assert v3_in_v2 == "False" and v4_in_v3 == "False"
+
+
+@pytest.mark.parametrize("cpu", OTHER_CPUS)
+def test_mesh_authoring_writes_the_committed_bytes_on_other_cpus(tmp_path: Path, cpu: str) -> None:
+    _author(tmp_path, _emulating(cpu))
+    for path in sorted((REPO / "meshes").rglob("*.dae")):
+        fresh = tmp_path / path.parent.name / path.name
+        assert fresh.read_bytes() == path.read_bytes(), f"{path.relative_to(REPO)} differs as {cpu}"
+
+
+@pytest.mark.slow
+def test_build_check_passes_on_another_cpu() -> None:
+    result = run_cli("build", "--check", "--force", env=_emulating("x86-64-v2"))
+    assert result.returncode == 0, result.stderr
