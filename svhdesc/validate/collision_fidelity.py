@@ -194,6 +194,8 @@ def _judge(sweep: _Sweep, parts: dict[int, Any], hits: list[tuple[float, int]], 
     for depth, index in picked:
         sweep.place(index)
         a_to_b = np.linalg.inv(_frame(data, b)) @ _frame(data, a)
+        if parts[a].within(parts[b], a_to_b, GAP):
+            continue
         gap = parts[a].distance(parts[b], a_to_b)
         if gap > GAP:
             return {

@@ -42,6 +42,19 @@ class VendorLink:
     points: np.ndarray
     tree: object  # scipy cKDTree over ``points``
 
+    def within(self, other: VendorLink, a_to_b: np.ndarray, bound: float, stride: int = 4) -> bool:
+        """Whether every ``stride``-th sample of this surface, placed as in ``distance``, finds one of ``other``'s
+        within ``bound``: a quick proof that the gap is at most ``bound`` (samples lie on the surfaces); False
+        proves nothing. Most touching poses are settled so, without ``distance``'s full query (issue 14: the
+        check's time)."""
+        moved = self.points[::stride] @ a_to_b[:3, :3].T + a_to_b[:3, 3]
+        low, high = other.points.min(axis=0) - bound, other.points.max(axis=0) + bound
+        moved = moved[np.all((moved >= low) & (moved <= high), axis=1)]
+        if len(moved) == 0:
+            return False
+        approx, _ = other.tree.query(moved, distance_upper_bound=bound)
+        return bool(np.isfinite(approx).any())
+
     def distance(self, other: VendorLink, a_to_b: np.ndarray) -> float:
         """Gap (m) between this surface, placed in ``other``'s frame by the 4x4 ``a_to_b``, and ``other``'s;
         REFINE_BELOW for any gap at least that large."""
