@@ -11,9 +11,9 @@ import numpy as np
 from lxml import etree
 
 from svhdesc.compiler import exact
+from svhdesc.compiler.frames import rpy_matrix
 from svhdesc.compiler.source.packages import resolve_uri
 from svhdesc.errors import SvhdescError
-from svhdesc.frames import rpy_matrix
 from svhdesc.ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
 
 LARGEST = 1e9  # larger than any length, mass, limit or effort of a robot; small enough to compute with

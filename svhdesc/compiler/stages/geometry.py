@@ -12,11 +12,11 @@ import trimesh
 from svhdesc.compiler import exact
 from svhdesc.compiler.decompose import DecompParams, bounded_hull
 from svhdesc.compiler.decompose.source import HullSource
+from svhdesc.compiler.frames import axis_frame, matrix_pose, pose_matrix
 from svhdesc.compiler.source.meshes import MeshError, convex_hull, load_mesh, obj_bytes, principal_cylinder, stl_bytes
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import CollisionRule
 from svhdesc.errors import SvhdescError
-from svhdesc.frames import axis_frame, matrix_pose, pose_matrix
 from svhdesc.ir import Geometry, Robot
 
 Scale = tuple[float, float, float]

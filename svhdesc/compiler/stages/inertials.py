@@ -11,11 +11,11 @@ import numpy as np
 import trimesh
 
 from svhdesc.compiler import exact
+from svhdesc.compiler.frames import axis_frame, pose_matrix
 from svhdesc.compiler.settings.schema import Hand, Mass, expand_hand
 from svhdesc.compiler.source.meshes import principal_cylinder
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.errors import SvhdescError
-from svhdesc.frames import axis_frame, pose_matrix
 from svhdesc.ir import Geometry, Inertial, Link, Robot
 
 
