@@ -18,6 +18,7 @@ import numpy as np
 
 from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
+from svhdesc.validate.handsim import svh_prefix
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, skipped, verdict
@@ -32,15 +33,6 @@ RANDOM_POSES = 1000
 DEPTH = 0.5e-3  # m
 GAP = 1e-3  # m between the vendor meshes
 CANDIDATES_PER_PAIR = 200  # touching poses judged per pair: the deepest half, the rest spread over the others
-
-
-def hand_prefix(model: Any) -> str | None:
-    """``right_hand`` from the joint ``right_hand_Thumb_Flexion`` (None without an SVH)."""
-    for j in range(model.njnt):
-        name = model.joint(j).name
-        if name.endswith("_Thumb_Flexion"):
-            return name.removesuffix("_Thumb_Flexion")
-    return None
 
 
 def hand_side(pair: ModelPair, prefix: str) -> str:
@@ -119,7 +111,7 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     if pair.model is None:
         return [not_run("collision_fidelity", "the MJCF does not compile", bound)]
     model = pair.model
-    prefix = hand_prefix(model)
+    prefix = svh_prefix(model)
     if prefix is None:
         return [skipped("collision_fidelity", "no SVH hand", bound)]
     folder = Path(options.vendor_meshes)

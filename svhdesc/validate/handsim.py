@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.ir import Channel
-from svhdesc.model import couplings
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.pair import ModelPair
 
@@ -28,6 +28,52 @@ TIP_OF_CHANNEL = {
     "Pinky": "q",
 }
 FINGERS = {"thumb": "c", "index": "t", "middle": "s", "ring": "r", "pinky": "q"}
+SVH_TIP_SUFFIXES = ("_c", "_t", "_s", "_r", "_q")  # thumb, index, middle, ring, pinky distal links
+
+
+@dataclass(frozen=True)
+class HandParts:
+    """Any robot's hand as the checks that drive it through its range or load it see it: its channel joints with
+    their commanded ranges (in the coupling spec's order) and its fingertip bodies (in model order)."""
+
+    prefix: str  # what the names are shown without ("" for a hand without one)
+    channels: dict[str, tuple[float, float]]  # joint name -> commanded range
+    tips: list[int]  # body ids
+
+    def short(self, name: str) -> str:
+        return name.removeprefix(f"{self.prefix}_") if self.prefix else name
+
+
+def hand_parts(pair: ModelPair) -> HandParts:
+    """From the configuration that built the model (its coupling spec's channels, hand.fingertips), a spec name
+    being ``<prefix>_<name>`` where the model has that, else the name itself; without a configuration, an SVH
+    recognised by its joint names (a bare --urdf/--mjcf pair)."""
+    model = pair.model
+    actuated = actuated_joints(model)
+    bodies = {model.body(b).name: b for b in range(model.nbody)}
+    configuration = pair.configuration
+    if configuration is None:
+        prefix = svh_prefix(model)
+        channels = {n: r for n, r in actuated.items() if prefix is not None and n.startswith(f"{prefix}_")}
+        tips = [b for name, b in bodies.items() if prefix is not None and name.endswith(SVH_TIP_SUFFIXES)]
+        return HandParts(prefix or "", channels, sorted(tips))
+    hand = configuration.settings.hand
+
+    def named(name: str, known: Any) -> str:
+        return hand.link(name) if hand.link(name) in known else name
+
+    joints = [named(c, actuated) for c in configuration.channels()]
+    tips = [bodies[named(t, bodies)] for t in hand.fingertips if named(t, bodies) in bodies]
+    return HandParts(hand.prefix or "", {j: actuated[j] for j in joints if j in actuated}, sorted(tips))
+
+
+def svh_prefix(model: Any) -> str | None:
+    """``right_hand`` from the joint ``right_hand_Thumb_Flexion`` (None without an SVH)."""
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name.endswith("_Thumb_Flexion"):
+            return name.removesuffix("_Thumb_Flexion")
+    return None
 
 
 @dataclass(frozen=True)

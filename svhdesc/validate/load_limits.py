@@ -1,13 +1,15 @@
 """Limits hold under load: random 50 N forces on every fingertip while the targets keep changing.
 
 A servo weaker than the load lets the finger hit its limit; the limit constraint must stop it within
-0.01 rad (MuJoCo limits are soft: too soft a solreflimit, or too fast a joint, and it goes through).
+0.01 rad (MuJoCo limits are soft: too soft a solreflimit, or too fast a joint, and it goes through). The
+fingertips are the configuration's hand.fingertips (any robot's hand or gripper), an SVH's distal links without one.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from svhdesc.validate.handsim import hand_parts
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
@@ -18,7 +20,6 @@ TARGET_PERIOD = 0.05  # s between new random targets
 LOAD = 50.0  # N per fingertip
 LOAD_PERIOD = 0.1  # s between new random directions
 BOUND = 0.01  # rad beyond a limit
-TIP_SUFFIXES = ("_c", "_t", "_s", "_r", "_q")  # thumb, index, middle, ring, pinky distal links
 
 
 def check_load_limits(pair: ModelPair, options: Options) -> list[Check]:
@@ -28,10 +29,10 @@ def check_load_limits(pair: ModelPair, options: Options) -> list[Check]:
     if pair.model is None:
         return [not_run("load_limits", "the MJCF does not compile", bound)]
     model = pair.model
-    tips = [b for b in range(model.nbody) if model.body(b).name.endswith(TIP_SUFFIXES)]
+    tips = hand_parts(pair).tips
     limited = [j for j in range(model.njnt) if model.jnt_limited[j]]
     if not tips:
-        return [skipped("load_limits", "no SVH fingertips", bound)]
+        return [skipped("load_limits", "no fingertips", bound)]
     if not limited:
         return [skipped("load_limits", "no limited joints", bound)]
     data, rng, low, high = random_target_start(model, options.seed)

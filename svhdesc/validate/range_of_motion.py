@@ -1,5 +1,8 @@
 """Every hand channel reaches both ends of its range with contacts and gravity on, as on the real hand.
 
+The channels are those of the coupling spec that built the model (any robot's hand or gripper; an SVH recognised
+by its joint names when no configuration is known).
+
 From ``home``, each channel alone is commanded to its lower end, then its upper end, then back, the others
 held where they are; each end must be reached within TOLERANCE of the range, and each coupled joint must
 reach its polynomial's image of the channel's ends. A channel that stops short names the body pair in
@@ -13,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.model import actuated_joints, couplings
+from svhdesc.model import couplings
 from svhdesc.polynomial import polyval
-from svhdesc.validate.collision_fidelity import hand_prefix
+from svhdesc.validate.handsim import hand_parts
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
@@ -61,10 +64,10 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     if pair.model is None:
         return [not_run("range_of_motion", "the MJCF does not compile", bound)]
     model = pair.model
-    prefix = hand_prefix(model)
-    if prefix is None:
-        return [skipped("range_of_motion", "no SVH hand", bound)]
-    channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}
+    hand = hand_parts(pair)
+    if not hand.channels:
+        return [skipped("range_of_motion", "no hand channels", bound)]
+    channels, prefix = hand.channels, hand.prefix
     strokes = _Strokes(
         model,
         mujoco.MjData(model),
@@ -79,7 +82,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     worst = min(results, key=lambda n: results[n]["fraction"]) if results else None
     rows = [
         [
-            n.removeprefix(prefix + "_"),
+            hand.short(n),
             f"{r['range'][0]:.4f} .. {r['range'][1]:.4f}",
             f"{r['reached'][0]:.4f} .. {r['reached'][1]:.4f}",
             f"{100 * r['fraction']:.1f} %",
@@ -90,7 +93,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         Check(
             "range_of_motion",
             verdict(not problems),
-            f"worst {fmt(100 * results[worst]['fraction'])} % ({worst.removeprefix(prefix + '_')})" if worst else "-",
+            f"worst {fmt(100 * results[worst]['fraction'])} % ({hand.short(worst)})" if worst else "-",
             bound,
             "; ".join(problems) or f"{len(results)} channels, contacts and gravity on, from 'home'",
             {"channels": results, "tolerance": TOLERANCE},
@@ -101,7 +104,8 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
 
 @dataclass
 class _Strokes:
-    """The hand's channels driven one at a time from ``home`` (the model's reset state without one)."""
+    """The hand's channels driven one at a time from ``home`` (the model's reset state without one); names are
+    shown without ``prefix``."""
 
     model: Any
     data: Any
@@ -122,6 +126,7 @@ class _Strokes:
         else:
             mujoco.mj_resetData(model, data)
         joint = model.joint(name).id
+        shown = name.removeprefix(f"{self.prefix}_") if self.prefix else name
         adr, actuator = int(model.jnt_qposadr[joint]), self.actuator_of[name]
         tol = TOLERANCE * (high - low)
         followers = [e for e in self.equalities if e.leader == name]
@@ -138,7 +143,7 @@ class _Strokes:
                 blockers = _blocking(model, data, moving)
                 entry.setdefault("blocked_by", {})[label] = blockers
                 problems.append(
-                    f"{name.removeprefix(self.prefix + '_')} stops at {q:.3f} of {goal:.4g} going {label}"
+                    f"{shown} stops at {q:.3f} of {goal:.4g} going {label}"
                     + (f", blocked by {blockers[0]}" if blockers else "")
                 )
             for e in followers:

@@ -6,6 +6,8 @@ loader."""
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -16,6 +18,10 @@ from lxml import etree
 
 import svhdesc
 from svhdesc.loaders import couplings
+from svhdesc.validate.handsim import hand_parts
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import load_pair
+from svhdesc.validate.range_of_motion import check_range_of_motion
 from tests.support import REPO, VENDOR_UR, run_cli
 
 EXAMPLES = REPO / "examples"
@@ -28,8 +34,11 @@ XARM_FOLLOWERS = {
     "right_finger_joint",
     "right_inner_knuckle_joint",
 }
-NO_HAND = {"load_limits", "collision_fidelity", "range_of_motion", "contact_stability", "fingertip_force", "grasps"}
-SKIPPED = {"ur5": NO_HAND | {"coupling_tracking", "coupling_spec", "limits"}, "xarm6_gripper": NO_HAND}
+NOT_AN_SVH = {"collision_fidelity", "contact_stability", "fingertip_force", "grasps"}  # the SVH's facts
+SKIPPED = {
+    "ur5": NOT_AN_SVH | {"load_limits", "range_of_motion", "coupling_tracking", "coupling_spec", "limits"},
+    "xarm6_gripper": NOT_AN_SVH,  # its gripper is driven end to end and loaded like any hand
+}
 
 pytestmark = pytest.mark.slow  # each robot's build and validate take tens of seconds
 
@@ -192,3 +201,32 @@ def test_example_arm_group_is_the_chain_of_its_arm_joints(example: tuple[str, Pa
     assert spanned[::-1] == yaml.safe_load(config.read_text())["arm"]["joints"]
     effector = srdf.find("end_effector")
     assert effector is None if name == "ur5" else effector.get("parent_link") == chain.get("tip_link")
+
+
+def test_xarm_gripper_is_driven_end_to_end_and_a_weak_drive_fails(
+    xarm: tuple[Path, subprocess.CompletedProcess[str]], tmp_path: Path
+) -> None:
+    """range_of_motion drives the configured hand of any robot: the gripper's one channel, end to end with its five
+    followers; a drive too weak to move the linkage stops short and is named."""
+    folder, _ = xarm
+    name = folder.name
+    pair = load_pair(folder / f"{name}.urdf", folder / f"{name}.xml", config_path=XARM)
+    (check,) = check_range_of_motion(pair, Options())
+    assert check.status == "pass", check.detail
+    # load_limits pushes the configured fingertips (hand.fingertips), not an SVH's distal links
+    assert sorted(pair.model.body(b).name for b in hand_parts(pair).tips) == ["left_finger", "right_finger"]
+    (entry,) = check.data["channels"].values()
+    assert list(check.data["channels"]) == ["drive_joint"] and set(entry["followers"]) == XARM_FOLLOWERS
+    assert entry["fraction"] > 0.99
+    weak = tmp_path / name
+    shutil.copytree(folder, weak)
+    mjcf = weak / f"{name}.xml"
+    lines = mjcf.read_text().splitlines(keepends=True)
+    force = re.compile(r'(actuatorfrcrange|forcerange)="-50 50"')
+    drive = [i for i, line in enumerate(lines) if 'name="drive_joint"' in line and force.search(line)]
+    assert len(drive) == 2  # the drive joint (actuatorfrcrange) and its servo (forcerange)
+    for i in drive:
+        lines[i] = force.sub(r'\1="-0.001 0.001"', lines[i])
+    mjcf.write_text("".join(lines))
+    (check,) = check_range_of_motion(load_pair(weak / f"{name}.urdf", mjcf, config_path=XARM), Options())
+    assert check.status == "fail" and "drive_joint stops at" in check.detail, check.detail
