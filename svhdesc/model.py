@@ -217,23 +217,13 @@ class Model:
         return None
 
     def _manifest_configs(self) -> list[Path]:
-        """The config the manifest names (its ``config``: package://svhdesc/... or relative to this folder), then
-        the configs among its inputs under package://svhdesc/config/ (manifests written before it had one)."""
-        manifest = self.manifest() or {}
-        named = [manifest["config"]] if isinstance(manifest.get("config"), str) else []
-        named += [u for u in manifest.get("inputs", {}) if u.startswith("package://svhdesc/config/")]
+        inputs = (self.manifest() or {}).get("inputs", {})
         paths = []
-        for uri in named:
-            if not uri.endswith((".yaml", ".yml")):
-                continue
-            if uri.startswith("package://svhdesc/"):
+        for uri in inputs:
+            if uri.startswith("package://svhdesc/config/") and uri.endswith(".yaml"):
                 path = source_root() / uri.removeprefix("package://svhdesc/")
-            elif uri.startswith("package://"):
-                continue  # another package's config: nothing here says where that package is
-            else:
-                path = (self.directory / uri).resolve()
-            if path.is_file() and path != default_config() and path not in paths:
-                paths.append(path)
+                if path.is_file() and path != default_config():
+                    paths.append(path)
         return paths
 
 

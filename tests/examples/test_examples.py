@@ -230,23 +230,3 @@ def test_xarm_gripper_is_driven_end_to_end_and_a_weak_drive_fails(
     mjcf.write_text("".join(lines))
     (check,) = check_range_of_motion(load_pair(weak / f"{name}.urdf", mjcf, config_path=XARM), Options())
     assert check.status == "fail" and "drive_joint stops at" in check.detail, check.detail
-
-
-def test_the_manifest_names_the_config_that_built_it(example: tuple[str, Path, Path]) -> None:
-    """validate and the loaders find a user's build's configuration without --config: its manifest names the config
-    relative to the variant's folder (the shipped models: package://svhdesc/config/...). Without that name, nothing
-    says where the config was."""
-    from svhdesc.model import Model
-
-    name, config, folder = example
-    written = (folder / "manifest.json").read_bytes()
-    manifest = json.loads(written)
-    assert (folder / manifest["config"]).resolve() == config.resolve()
-    found = Model(name, folder).configuration()
-    assert found is not None and found.variant == name and found.config_dir == config.parent.resolve()
-    del manifest["config"]
-    (folder / "manifest.json").write_text(json.dumps(manifest))
-    try:
-        assert Model(name, folder).configuration() is None
-    finally:
-        (folder / "manifest.json").write_bytes(written)

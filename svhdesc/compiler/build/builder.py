@@ -17,11 +17,8 @@ from svhdesc.compiler.settings.config import Config
 from svhdesc.paths import models_dir
 
 
-def write_variant(
-    compiled: Compiled, directory: Path, config_files: tuple[Path, ...], timings: Timings, config: str | None = None
-) -> None:
-    """The compiled variant's assets, every output of the registry, and the manifest, into ``directory``;
-    ``config`` names the config that built it for the manifest (``config_reference``)."""
+def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path, ...], timings: Timings) -> None:
+    """The compiled variant's assets, every output of the registry, and the manifest, into ``directory``."""
     directory.mkdir(parents=True)
     (directory / "assets").mkdir()
     for name, data in sorted(compiled.assets.files.items()):
@@ -49,7 +46,6 @@ def write_variant(
     }
     manifest = {
         "variant": plan.variant.name,
-        **({"config": config} if config is not None else {}),
         "inputs": inputs,
         "outputs": produced,
         "decompositions": compiled.assets.decompositions,
@@ -74,18 +70,9 @@ def _write_all(
     hulls.seed_from_outputs([*shipped, *(out / v.name for v in config.select(names))])
     written = []
     for compiled in compile_variants(config, names, extra_packages, hulls, timings):
-        name = compiled.plan.variant.name
-        reference = config_reference(config.path, compiled.plan.packages, out / name)
-        write_variant(compiled, directory / name, config.files, timings, reference)
+        write_variant(compiled, directory / compiled.plan.variant.name, config.files, timings)
         written.append(compiled.plan.variant.name)
     return written
-
-
-def config_reference(config: Path, packages: dict[str, Path], published: Path) -> str:
-    """Where the config that built a variant is, for the manifest: package://PKG/... inside a package (the shipped
-    models: the same on every checkout), else relative to the variant's published folder (a user's own build),
-    so that ``validate`` and the loaders find the configuration without --config."""
-    return portable(config.resolve(), packages, published.resolve())
 
 
 def build(
