@@ -43,10 +43,10 @@ class VendorLink:
     tree: object  # scipy cKDTree over ``points``
 
     def within(self, other: VendorLink, a_to_b: np.ndarray, bound: float, stride: int = 4) -> bool:
-        """Whether every ``stride``-th sample of this surface, placed as in ``distance``, finds one of ``other``'s
-        within ``bound``: a quick proof that the gap is at most ``bound`` (samples lie on the surfaces); False
-        proves nothing. Most touching poses are settled so, without ``distance``'s full query (issue 14: the
-        check's time)."""
+        """Whether some sample among every ``stride``-th of this surface, placed as in ``distance``, lies within
+        ``bound`` of one of ``other``'s: a quick proof that the gap is at most ``bound`` (samples lie on the
+        surfaces); False proves nothing. Most touching poses are settled so, without ``distance``'s full query
+        (issue 14: the check's time)."""
         moved = self.points[::stride] @ a_to_b[:3, :3].T + a_to_b[:3, 3]
         low, high = other.points.min(axis=0) - bound, other.points.max(axis=0) + bound
         moved = moved[np.all((moved >= low) & (moved <= high), axis=1)]
