@@ -364,6 +364,19 @@ def urdf_couplings(urdf: Path) -> list[Coupling]:
     return [coupling for joint in root.iter("joint") if (coupling := mimic_coupling(joint)) is not None]
 
 
+def urdf_velocity_limits(urdf: Path) -> dict[str, float]:
+    """Joint name -> the URDF's ``<limit velocity>`` [rad/s], for every joint that declares one."""
+    from lxml import etree
+
+    root = etree.parse(str(urdf)).getroot()
+    limits = {}
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        if limit is not None and limit.get("velocity") is not None:
+            limits[joint.get("name")] = float(limit.get("velocity"))
+    return limits
+
+
 # --- The vendor sources as the compiler reads them (checks against the vendor's own geometry) --------------------
 
 

@@ -1,5 +1,9 @@
 """A variant's scene in MuJoCo, driven by joint targets and trajectories; no ROS needed.
 
+Hand channels move as the SVH's firmware moves them: its position controller ramps the setpoint toward the
+command at most at the channel's velocity limit (the driver's maximum step per second, the URDF's ``<limit
+velocity>``), so a step command takes its time as on the robot. The MJCF alone has no such limit.
+
 sim = Simulation("ur5_svh_right", keyframe="home")
 sim.follow(["shoulder_pan_joint"], [Point(2.0, (1.0,))])
 sim.advance(2.5)
@@ -17,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.errors import SvhdescError
+from svhdesc.model import urdf_velocity_limits
 from svhdesc.sim.robot import RobotInfo, describe
 from svhdesc.sim.trajectory import Point, State, Trajectory, validate_points
 
@@ -59,17 +64,20 @@ class Simulation:
         keyframe: str | None = "home",
         gravity_compensation: bool = True,
         edit: Callable[[Any], None] | None = None,
+        setpoint_ramp: bool = True,
     ) -> None:
-        """``edit`` may change the scene's ``mujoco.MjSpec`` before it compiles (add objects)."""
+        """``edit`` may change the scene's ``mujoco.MjSpec`` before it compiles (add objects); ``setpoint_ramp``
+        False lets the hand's servos take a command at once (faster than the real hand)."""
         import mujoco
 
         import svhdesc
 
         self._mj = mujoco
         try:
-            scene = svhdesc.get(variant).scene_path
+            built = svhdesc.get(variant)
         except KeyError as exc:
             raise SvhdescError(str(exc.args[0])) from None
+        scene = built.scene_path
         self.variant = variant
         spec = mujoco.MjSpec.from_file(str(scene))
         if gravity_compensation:
@@ -85,6 +93,11 @@ class Simulation:
         self._act_qpos = np.array([self.model.joint(a).qposadr[0] for a in self.info.actuators], dtype=int)
         self._act_qvel = np.array([self.model.joint(a).dofadr[0] for a in self.info.actuators], dtype=int)
         self._ctrlrange = self.model.actuator_ctrlrange.copy()
+        limits = urdf_velocity_limits(built.urdf_path) if setpoint_ramp else {}
+        ramped = [(self._act_index[j], limits[j]) for j in self.info.hand_channels if limits.get(j, 0.0) > 0.0]
+        self._ramped = np.array([i for i, _ in ramped], dtype=int)
+        self._ramp_step = np.array([v * self.timestep for _, v in ramped])  # rad per physics step
+        self._setpoint = np.zeros(len(ramped))  # what the firmware's ramp has reached
         self._active: list[_Active] = []
         self._step_hooks: list[Callable[[], None]] = []
         self.reset(keyframe)
@@ -103,6 +116,7 @@ class Simulation:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(keyframe).id)
             self.data.ctrl[:] = self.data.qpos[self._act_qpos]
         self._active.clear()
+        self._setpoint = self.data.ctrl[self._ramped].astype(float)
         mujoco.mj_forward(self.model, self.data)
 
     # -- names -------------------------------------------------------------------------------
@@ -168,6 +182,7 @@ class Simulation:
         value = min(max(value, low), high)
         self._release([index])
         self.data.ctrl[index] = value
+        self._setpoint[self._ramped == index] = value
         self.data.qpos[self._act_qpos[index]] = value
         self.data.qvel[self._act_qvel[index]] = 0.0
         for coupling in self.info.couplings:
@@ -228,6 +243,8 @@ class Simulation:
         indices = [self.actuator(n) for n in names]
         self._release(indices)
         self.data.ctrl[indices] = self.data.qpos[self._act_qpos[indices]]
+        held = np.isin(self._ramped, indices)
+        self._setpoint[held] = self.data.ctrl[self._ramped[held]]
 
     def _release(self, indices: Sequence[int]) -> None:
         taken = set(indices)
@@ -260,7 +277,11 @@ class Simulation:
                     finished.append(active)
             for active in finished:
                 self._active.remove(active)
+            commanded = self.data.ctrl[self._ramped].copy()
+            self._setpoint = np.clip(commanded, self._setpoint - self._ramp_step, self._setpoint + self._ramp_step)
+            self.data.ctrl[self._ramped] = self._setpoint  # the servos see the ramp, the rest of the API the command
             mujoco.mj_step(self.model, self.data)
+            self.data.ctrl[self._ramped] = commanded
             for hook in self._step_hooks:
                 hook()
         if not np.all(np.isfinite(self.data.qpos)):

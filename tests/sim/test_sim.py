@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from svhdesc.compiler.settings.coupling import load_spec
 from svhdesc.errors import SvhdescError
 from svhdesc.sim import Point, Simulation, State, Trajectory
-from tests.support import run_cli
+from tests.support import REPO, run_cli
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -224,3 +225,37 @@ def test_run_without_an_end_stops_when_the_callback_says_so() -> None:
 
     assert sim.run(math.inf, realtime=False, every=0.02, callback=three_times) > 0
     assert len(calls) == 3 and sim.time == pytest.approx(0.06)
+
+
+def _stroke_speeds(setpoint_ramp: bool) -> dict[str, tuple[float, float, float]]:
+    """Per hand channel of svh_right, commanded in one step from its lower to its upper end: (fastest speed over
+    0.1 s, where it is after range / driver velocity + 1.5 s, its upper end)."""
+    sim = Simulation("svh_right", keyframe="home", setpoint_ramp=setpoint_ramp)
+    spec = {c.name: c for c in load_spec(REPO / "config" / "coupling.yaml").channels}
+    result = {}
+    for joint in sim.info.hand_channels:
+        channel = joint.removeprefix("right_hand_")
+        low, high = sim.limits(joint)
+        sim.reset("home")
+        sim.set_joint_position(joint, low)
+        sim.set_target(joint, high)
+        positions = [sim.positions()[joint]]
+        for _ in range(math.ceil(((high - low) / spec[channel].velocity + 1.5) / 0.1)):
+            sim.advance(0.1)
+            positions.append(sim.positions()[joint])
+        result[channel] = (float(np.max(np.diff(positions))) / 0.1, positions[-1], high)
+    return result
+
+
+def test_hand_channels_move_at_most_at_the_drivers_velocity() -> None:
+    """The SVH firmware ramps each channel's setpoint at its velocity limit (the driver's maximum step per second,
+    config/coupling.yaml): a step command to the far end moves no faster and still arrives. Without the ramp the
+    servos alone move the thumb five times as fast as the real one."""
+    spec = {c.name: c.velocity for c in load_spec(REPO / "config" / "coupling.yaml").channels}
+    ramped = _stroke_speeds(True)
+    assert set(ramped) == set(spec)
+    for channel, (speed, reached, high) in ramped.items():
+        assert speed <= spec[channel] * 1.02, (channel, speed, spec[channel])
+        assert reached == pytest.approx(high, abs=0.01 * high), channel
+    free = _stroke_speeds(False)
+    assert free["Thumb_Flexion"][0] > 3 * spec["Thumb_Flexion"]  # what the ramp prevents
