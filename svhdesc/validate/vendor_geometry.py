@@ -47,9 +47,7 @@ class VendorLink:
         ``bound`` of one of ``other``'s: a quick proof that the gap is at most ``bound`` (samples lie on the
         surfaces); False proves nothing. Most touching poses are settled so, without ``distance``'s full query
         (issue 14: the check's time)."""
-        moved = self.points[::stride] @ a_to_b[:3, :3].T + a_to_b[:3, 3]
-        low, high = other.points.min(axis=0) - bound, other.points.max(axis=0) + bound
-        moved = moved[np.all((moved >= low) & (moved <= high), axis=1)]
+        moved = _placed_near(self.points[::stride], other, a_to_b, bound)
         if len(moved) == 0:
             return False
         approx, _ = other.tree.query(moved, distance_upper_bound=bound)
@@ -60,9 +58,7 @@ class VendorLink:
         REFINE_BELOW for any gap at least that large."""
         import trimesh
 
-        moved = self.points @ a_to_b[:3, :3].T + a_to_b[:3, 3]
-        low, high = other.points.min(axis=0) - REFINE_BELOW, other.points.max(axis=0) + REFINE_BELOW
-        moved = moved[np.all((moved >= low) & (moved <= high), axis=1)]
+        moved = _placed_near(self.points, other, a_to_b, REFINE_BELOW)
         if len(moved) == 0:
             return REFINE_BELOW  # at least that far apart: nothing of this part is near the other's box
         approx, _ = other.tree.query(moved, distance_upper_bound=REFINE_BELOW)
@@ -71,6 +67,13 @@ class VendorLink:
         nearest = moved[np.argsort(approx)[:REFINE_POINTS]]
         _, exact, _ = trimesh.proximity.closest_point(other.mesh, nearest)
         return float(min(exact.min(), approx.min()))
+
+
+def _placed_near(points: np.ndarray, other: VendorLink, a_to_b: np.ndarray, bound: float) -> np.ndarray:
+    """``points`` moved into ``other``'s frame by ``a_to_b``, less those outside its box grown by ``bound``."""
+    moved = points @ a_to_b[:3, :3].T + a_to_b[:3, 3]
+    low, high = other.points.min(axis=0) - bound, other.points.max(axis=0) + bound
+    return moved[np.all((moved >= low) & (moved <= high), axis=1)]
 
 
 @functools.lru_cache(maxsize=4)
