@@ -4,7 +4,8 @@
 
 (a) cold build of the three variants (empty hull cache, empty output directory),
 (b) warm build: unchanged sources (up-to-date check) and forced (--force: full rebuild, cache hits),
-(c) --check on a clean clone (empty hull cache): by manifest, and --force (rebuild and compare bytes),
+(c) --check on a clean clone: it trusts nothing in generated/, so with an empty hull cache it decomposes every
+    collision mesh again; then the same with the hull cache it filled (what a developer's machine sees),
 (d) simulation speed of ur5_svh_right pressing its index fingertip on a fixed surface in the `test`
     pose, as realtime factor at the model's own timestep, and as a ratio to the thesis model
     (../shared/peers seed_svh_ur5_mujoco) in the same scene, measured in the same run.
@@ -124,8 +125,8 @@ def main() -> None:
         forced, forced_counts = timed(["build", "--out", str(out), "--force", "--timings"], REPO, root / "cache")
         clone = root / "clone"
         subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
-        check, _ = timed(["build", "--check"], clone, root / "clone-cache")
-        check_full, check_counts = timed(["build", "--check", "--force", "--timings"], clone, root / "clone-cache")
+        check_cold, cold_check_counts = timed(["build", "--check", "--timings"], clone, root / "clone-cache")
+        check_warm, warm_check_counts = timed(["build", "--check", "--timings"], clone, root / "clone-cache")
 
         ours = mujoco.MjSpec.from_file(str(REPO / "generated" / VARIANT / f"{VARIANT}.xml"))
         probe = ours.compile()
@@ -138,8 +139,8 @@ def main() -> None:
         ("(a) cold build, 3 variants, empty cache", f"{cold:.1f} s", "<= 180 s", cold <= 180, cold_counts),
         ("(b) warm build, unchanged (up-to-date check)", f"{warm:.2f} s", "<= 2 s", warm <= 2, ""),
         ("(b) warm build, --force (full rebuild, cache hits)", f"{forced:.2f} s", "(info)", True, forced_counts),
-        ("(c) --check on a clean clone", f"{check:.2f} s", "<= 3 s", check <= 3, ""),
-        ("(c) --check --force on a clean clone", f"{check_full:.2f} s", "(info)", True, check_counts),
+        ("(c) --check on a clean clone, empty hull cache", f"{check_cold:.1f} s", "(info)", True, cold_check_counts),
+        ("(c) --check again, hull cache filled", f"{check_warm:.2f} s", "(info)", True, warm_check_counts),
         (
             f"(d) {VARIANT} realtime factor, fingertip pressed",
             f"{our_rtf:.2f}x",

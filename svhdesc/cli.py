@@ -5,6 +5,7 @@ Bad input: one line on stderr, exit code 2.
 
 from __future__ import annotations
 
+import math
 import sys
 import warnings
 from collections.abc import Callable, Collection
@@ -136,11 +137,16 @@ def main() -> None:
 )
 @config_option
 @package_option
-@click.option("--check", is_flag=True, help="Build to a temporary directory; exit 1 listing files that differ.")
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Rebuild into a temporary directory, trusting nothing in OUT (its hulls come from the checked cache or "
+    "CoACD); exit 1 listing files that differ.",
+)
 @click.option("--jobs", "-j", type=int, default=0, help="Parallel decompositions; 0 (the default): one per CPU.")
 @click.option("--rebuild-collisions", is_flag=True, help="Decompose again, ignoring every cache.")
 @click.option("--timings", "show_timings", is_flag=True, help="Print wall time per build stage.")
-@click.option("--force", is_flag=True, help="Rebuild (or with --check, rebuild and compare) even if up to date.")
+@click.option("--force", is_flag=True, help="Rebuild even if up to date (--check always rebuilds).")
 @_friendly
 def build_command(
     variants: tuple[str, ...],
@@ -155,14 +161,17 @@ def build_command(
 ) -> None:
     """Build VARIANTS (all by default) into OUT/<variant>/."""
     from svhdesc.compiler.build.freshness import stale_variants
+    from svhdesc.compiler.build.outdir import tidy
 
     if jobs < 0:
         raise SvhdescError(f"--jobs must be >= 0 (0: one per CPU), got {jobs}")
     config, package_dirs = _load(config_path, packages)
     out = out or default_out(config_path)
     selected = config.select(list(variants))
-    # Unchanged sources, tools and outputs (by content hash): nothing to build, nothing to import.
-    stale = selected if force or rebuild_collisions else stale_variants(selected, out, package_dirs)
+    tidy(out)  # a killed build's staging folder goes even when nothing is to be built
+    # Unchanged sources, tools and outputs (by content hash): nothing to build, nothing to import. --check trusts
+    # no hash: it always rebuilds and compares.
+    stale = selected if force or rebuild_collisions or check else stale_variants(selected, out, package_dirs)
     current = [v.name for v in selected if v not in stale]
     for name in current:
         _say(f"up to date: {out / name}")
@@ -657,8 +666,10 @@ def sim_command(
     """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
 
     Trailing NAME:=VALUE arguments are ROS remappings (roslaunch passes __name:= and __log:=)."""
-    if duration is not None and not duration > 0:
-        raise SvhdescError(f"--duration must be positive, got {duration}")
+    if duration is not None and not 0 < duration < math.inf:
+        raise SvhdescError(f"--duration must be a positive, finite number of seconds, got {duration}")
+    if not 0 < rate < math.inf:
+        raise SvhdescError(f"--rate must be a positive, finite number of Hz, got {rate}")
     stray = [a for a in ros_args if ":=" not in a]
     if stray:
         raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
@@ -714,8 +725,10 @@ def plan_command(
         raise SvhdescError("give exactly one of --to STATE and --pose X Y Z ROLL PITCH YAW")
     if planner not in PLANNERS:
         raise SvhdescError(f"--planner: unknown '{planner}'; choose from {', '.join(PLANNERS)}")
-    if not timeout > 0:
-        raise SvhdescError(f"--timeout must be positive, got {timeout}")
+    if not 0 < timeout < math.inf:
+        raise SvhdescError(f"--timeout must be a positive, finite number of seconds, got {timeout}")
+    if json_path is not None and json_path.is_dir():
+        raise SvhdescError(f"--json: {json_path} is a directory")
     if variant not in svhdesc_variants():
         raise SvhdescError(f"unknown variant '{variant}'; available: {', '.join(svhdesc_variants())}")
     obstacles = load_obstacles(scene_file) if scene_file is not None else []
@@ -728,9 +741,7 @@ def plan_command(
 
         document["execution"] = run(result, engine.config).as_json()
     if json_path is not None:
-        temporary = json_path.with_name(json_path.name + ".tmp")
-        temporary.write_text(json.dumps(document, indent=1) + "\n")
-        temporary.replace(json_path)
+        _write_atomically(json_path, json.dumps(document, indent=1) + "\n")
     if not result.success:
         click.echo(f"no plan: {result.message}", err=True)
         sys.exit(1)
@@ -746,6 +757,17 @@ def plan_command(
         )
         if not run_info["success"]:
             sys.exit(1)
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """``path`` holds the old or the new text, never part of it; nothing is left behind if writing fails."""
+    temporary = path.with_name(path.name + ".tmp")
+    try:
+        temporary.write_text(text)
+        temporary.replace(path)
+    except OSError as exc:
+        temporary.unlink(missing_ok=True)
+        raise SvhdescError(f"{path}: cannot write ({exc.strerror or exc})") from None
 
 
 def svhdesc_variants() -> list[str]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +29,7 @@ class Obstacle:
     position: tuple[float, float, float]
     mass: float | None = None
     friction: float = 1.0
+    at: str = field(default="", compare=False)  # file:line of its entry, for errors
 
 
 def add_objects(spec: Any, objects: Sequence[Obstacle]) -> None:
@@ -36,7 +37,15 @@ def add_objects(spec: Any, objects: Sequence[Obstacle]) -> None:
     import mujoco
 
     kinds = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}
+    taken = {e.name for e in (*spec.bodies, *spec.geoms, *spec.joints) if e.name}
     for item in objects:
+        clash = {item.name, f"{item.name}_free"} & taken
+        if clash:
+            where = item.at or f"object {item.name}"
+            raise SvhdescError(
+                f"{where}: the name {sorted(clash)[0]!r} is taken by the robot or scene; rename the object"
+            )
+        taken |= {item.name, f"{item.name}_free"}
         if item.shape not in kinds:
             raise SvhdescError(f"object {item.name}: shape must be box or cylinder, not {item.shape}")
         size = [*item.size, 0.0, 0.0][:3]
@@ -49,44 +58,82 @@ def add_objects(spec: Any, objects: Sequence[Obstacle]) -> None:
             body.add_geom(name=item.name, mass=item.mass, condim=4, rgba=[0.8, 0.3, 0.2, 1], **geom)
 
 
-def load_obstacles(path: Path) -> list[Obstacle]:
-    """The ``obstacles:`` list of a scene file (module docstring); errors name the entry."""
+# Plausibility bounds: a scene is a workcell, not the solar system; beyond them MuJoCo's collision and
+# integration stop meaning anything (an object at 1e300 m stalls mj_step for minutes).
+MAX_EXTENT = 100.0  # m, any coordinate or size
+MAX_MASS = 1e4  # kg
+MAX_FRICTION = 10.0
+KEYS = {"name", "shape", "size", "position", "mass", "friction"}
+
+
+def _positive(value: Any, limit: float) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and 0 < value <= limit
+
+
+def _document(path: Path) -> tuple[Any, list[int]]:
+    """The scene file's data and the line of each ``obstacles:`` entry (1-based)."""
     import yaml
 
     try:
-        document = yaml.safe_load(path.read_text())
+        text = path.read_text(encoding="utf-8")
+        node, document = yaml.compose(text, Loader=yaml.SafeLoader), yaml.safe_load(text)
     except OSError as exc:
         raise SvhdescError(f"{path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise SvhdescError(f"{path}: not YAML: {exc}") from None
+    except UnicodeDecodeError:
+        raise SvhdescError(f"{path}: not a UTF-8 text file") from None
+    except yaml.MarkedYAMLError as exc:
+        line = f":{exc.problem_mark.line + 1}" if exc.problem_mark else ""
+        raise SvhdescError(f"{path}{line}: not YAML ({exc.problem})") from None
+    except (yaml.YAMLError, ValueError, RecursionError) as exc:  # ValueError: an integer of 4300+ digits
+        raise SvhdescError(f"{path}: not YAML ({type(exc).__name__})") from None
+    lines: list[int] = []
+    if isinstance(node, yaml.MappingNode):
+        for key, value in node.value:
+            if key.value == "obstacles" and isinstance(value, yaml.SequenceNode):
+                lines = [item.start_mark.line + 1 for item in value.value]
+    return document, lines
+
+
+def load_obstacles(path: Path) -> list[Obstacle]:
+    """The ``obstacles:`` list of a scene file (module docstring); errors name the file and the entry's line."""
+    document, lines = _document(path)
     entries = document.get("obstacles") if isinstance(document, dict) else None
     if not isinstance(entries, list):
         raise SvhdescError(f"{path}: expected an 'obstacles:' list")
-    found = []
+    found: list[Obstacle] = []
     for i, entry in enumerate(entries):
-        where = f"{path}: obstacles[{i}]"
-        try:
-            shape, size, position = (
-                entry["shape"],
-                [float(v) for v in entry["size"]],
-                [float(v) for v in entry["position"]],
-            )
-            name = str(entry.get("name", f"obstacle_{i}"))
-        except (TypeError, KeyError, ValueError) as exc:
-            raise SvhdescError(f"{where}: needs shape, size and position ({exc})") from None
-        want = SHAPES.get(shape)
-        if want is None or len(size) != want or len(position) != 3:
-            raise SvhdescError(f"{where}: a box has 3 half sizes, a cylinder 2 (radius, half height); position x y z")
-        if not all(math.isfinite(v) for v in size + position) or min(size) <= 0:
-            raise SvhdescError(f"{where}: sizes must be positive and every number finite")
-        mass = entry.get("mass")
-        if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float)) or not mass > 0):
-            raise SvhdescError(f"{where}: mass must be a positive number, got {mass!r}")
-        friction = entry.get("friction", 1.0)
-        if isinstance(friction, bool) or not isinstance(friction, (int, float)) or not friction > 0:
-            raise SvhdescError(f"{where}: friction must be a positive number, got {friction!r}")
-        unknown = sorted(set(entry) - {"name", "shape", "size", "position", "mass", "friction"})
-        if unknown:
-            raise SvhdescError(f"{where}: unknown keys {unknown}")
-        found.append(Obstacle(name, shape, tuple(size), tuple(position), mass, float(friction)))
+        at = f"{path}:{lines[i]}" if i < len(lines) else f"{path}: obstacles[{i}]"
+        item = _obstacle(entry, i, at)
+        if any(other.name == item.name for other in found):
+            raise SvhdescError(f"{at}: a second object named {item.name!r}")
+        found.append(item)
     return found
+
+
+def _obstacle(entry: Any, i: int, at: str) -> Obstacle:
+    try:
+        shape, size, position = (
+            entry["shape"],
+            [float(v) for v in entry["size"]],
+            [float(v) for v in entry["position"]],
+        )
+        name = str(entry.get("name", f"obstacle_{i}"))
+    except (TypeError, KeyError, ValueError, OverflowError) as exc:
+        raise SvhdescError(f"{at}: needs shape, size and position ({exc})") from None
+    unknown = sorted(set(entry) - KEYS)
+    if unknown:
+        raise SvhdescError(f"{at}: unknown keys {unknown}")
+    want = SHAPES.get(shape)
+    if want is None or len(size) != want or len(position) != 3:
+        raise SvhdescError(f"{at}: a box has 3 half sizes, a cylinder 2 (radius, half height); position x y z")
+    if not all(math.isfinite(v) for v in size + position) or min(size) <= 0:
+        raise SvhdescError(f"{at}: sizes must be positive and every number finite")
+    if max(abs(v) for v in size + position) > MAX_EXTENT:
+        raise SvhdescError(f"{at}: sizes and positions must be within {MAX_EXTENT:g} m")
+    mass = entry.get("mass")
+    if mass is not None and not _positive(mass, MAX_MASS):
+        raise SvhdescError(f"{at}: mass must be a number in (0, {MAX_MASS:g}] kg, got {mass!r}")
+    friction = entry.get("friction", 1.0)
+    if not _positive(friction, MAX_FRICTION):
+        raise SvhdescError(f"{at}: friction must be a number in (0, {MAX_FRICTION:g}], got {friction!r}")
+    return Obstacle(name, shape, tuple(size), tuple(position), mass, float(friction), at)

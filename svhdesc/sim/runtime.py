@@ -284,8 +284,23 @@ class Simulation:
             self.data.ctrl[self._ramped] = commanded
             for hook in self._step_hooks:
                 hook()
-        if not np.all(np.isfinite(self.data.qpos)):
-            raise SvhdescError(f"{self.variant}: the simulation diverged at t = {self.time:.3f} s")
+        self._check_diverged()
+
+    def _check_diverged(self) -> None:
+        """Stop at once, naming the joint, when MuJoCo found a bad state (it then resets it to a finite one, so the
+        state alone can look fine) or the state went non-finite."""
+        mj, warning = self._mj, self.data.warning
+        kinds = (mj.mjtWarning.mjWARN_BADQPOS, mj.mjtWarning.mjWARN_BADQVEL, mj.mjtWarning.mjWARN_BADQACC)
+        bad = [kind for kind in kinds if warning[kind].number]
+        if not bad and np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all():
+            return
+        index = int(warning[bad[0]].lastinfo) if bad else int(np.argmin(np.isfinite(self.data.qvel)))
+        if bad and bad[0] == mj.mjtWarning.mjWARN_BADQPOS:  # a qpos address: the joint whose coordinates hold it
+            joint = int(np.searchsorted(self.model.jnt_qposadr, index, side="right") - 1)
+        else:
+            joint = int(self.model.dof_jntid[min(index, self.model.nv - 1)])
+        name = mj.mj_id2name(self.model, mj.mjtObj.mjOBJ_JOINT, joint)
+        raise SvhdescError(f"{self.variant}: the simulation diverged at t = {self.time:.3f} s (joint {name})")
 
     def advance(self, seconds: float) -> None:
         self.step(max(0, round(seconds / self.timestep)))

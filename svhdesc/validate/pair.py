@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -9,6 +10,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
+from svhdesc.errors import SvhdescError
 from svhdesc.model import Configuration, Coupling, Model, mimic_coupling
 
 
@@ -157,6 +159,7 @@ def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_
         pair.urdf = read_urdf_facts(urdf_path)
     except (OSError, etree.XMLSyntaxError, ValueError, TypeError, AttributeError) as exc:
         pair.urdf_error = f"{type(exc).__name__}: {exc}"
+    _refuse_nonfinite(mjcf_path)
     try:
         pair.model = mujoco.MjModel.from_xml_path(str(mjcf_path))
     except (ValueError, OSError) as exc:
@@ -166,6 +169,33 @@ def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_
         pair.name = model_name
     pair.configuration = Model(model_name, mjcf_path.parent).configuration(config_path)
     return pair
+
+
+_NAME_ATTRIBUTES = frozenset(
+    "name class childclass file model mesh material texture joint joint1 joint2 body body1 body2 geom geom1 geom2 "
+    "site target tendon actuator objname objtype refname hfield content_type prefix key".split()
+)
+
+
+def _refuse_nonfinite(path: Path) -> None:
+    """A nan or inf anywhere in the MJCF is refused before MuJoCo reads it (it would read it and diverge)."""
+    try:
+        root = etree.parse(str(path)).getroot()
+    except (OSError, etree.XMLSyntaxError):
+        return  # reported as the MJCF's load error
+    for element in root.iter(etree.Element):
+        for attribute, value in element.attrib.items():
+            if attribute in _NAME_ATTRIBUTES:
+                continue  # a body may be called "nan"
+            for token in value.split():
+                try:
+                    finite = math.isfinite(float(token))
+                except ValueError:
+                    continue  # not a number
+                if not finite:
+                    name = element.get("name")
+                    what = f"<{element.tag}{f' name={name!r}' if name else ''}>"
+                    raise SvhdescError(f"{path}:{element.sourceline}: {what} {attribute}={value!r} is not finite")
 
 
 def _mjcf_model_name(path: Path) -> str | None:

@@ -350,7 +350,31 @@ DUPLICATE_CASES: list[Case] = [
     ),
 ]
 
-ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES, *DUPLICATE_CASES]
+# Issue 28: inputs that gave a traceback or named another place than the culprit.
+HUGE = "9" * 400
+CULPRIT_CASES: list[Case] = [
+    ("poly_huge_integer", spec("poly: [0.0, 0.5]", f"poly: [0.0, {HUGE}]"), "coupling.yaml:4: coupled joint j2"),
+    ("yaml_5000_digits", config("kp: 1.0", "kp: " + "9" * 5000), "mini.yaml:7: integer 9999"),
+    ("yaml_nested_5000", config("kp: 1.0", "kp: " + "[" * 5000 + "]" * 5000), "mini.yaml: invalid YAML (nested"),
+    ("spec_5000_digits", spec("effort: 1.0", "effort: " + "9" * 5000), "coupling.yaml:2: integer"),
+    # an expression error inside the included finger.xacro names that file and line, not the entry file
+    ("expression_in_include", xacro('upper="1.0"', 'upper="${1/0}"'), "finger.xacro:20: xacro: division by zero"),
+    ("syntax_in_include", xacro('upper="1.0"', 'upper="${1 +* 2}"'), "finger.xacro:20: xacro: invalid syntax"),
+    # a keyframe on a coupled joint (by its spec name), and a hand.prefix that begins no joint: the config's line
+    (
+        "keyframe_on_coupled_joint",
+        config("home: {A: 0.1}", "home: {A: 0.1, j2: 0.05}"),
+        "mini.yaml:21: keyframe home: j2 is a coupled joint; give its channel instead",
+    ),
+    ("hand_prefix_wrong", config("prefix: right_hand", "prefix: left_hand"), "mini.yaml:4: hand.prefix 'left_hand'"),
+    (
+        "arm_joint_typo",
+        config("scene: {floor_z: -0.1}", "scene: {floor_z: -0.1}\narm: {enabled: true, joints: [right_hand_jx]}"),
+        "mini.yaml:20: arm.joints: not in the robot: ['right_hand_jx']",
+    ),
+]
+
+ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES, *DUPLICATE_CASES, *CULPRIT_CASES]
 
 
 @pytest.mark.parametrize(("name", "mutate", "match"), ALL, ids=[case[0] for case in ALL])
@@ -590,3 +614,25 @@ def test_non_utf8_path_inside_the_xacro_is_refused(mini: tuple[Path, Path], tmp_
     edit(project / "mini.xacro", 'filename="cube.stl"/>', 'filename="$(find mypkg)/cube.stl"/>')
     args = ["build", "--config", str(project / "mini.yaml"), "--out", str(out), "--package", f"mypkg={package}"]
     fails_cleanly(out, *args, match="/cube.stl' is not UTF-8")
+
+
+def test_exponent_without_a_dot_is_a_number(mini: tuple[Path, Path]) -> None:
+    """YAML 1.1 reads ``1e-3`` as text; the config takes it as the number everyone means (seeded fault: the
+    resolver removed from yamlio, and this build fails with "must be a number, got '1e-3'")."""
+    project, out = mini
+    edit(project / "mini.yaml", "timestep: 0.001", "timestep: 1e-3")
+    edit(project / "mini.yaml", "kp: 1.0", "kp: 1E0")
+    result = run_cli("build", "--config", str(project / "mini.yaml"), "--out", str(out), "--force", in_process=True)
+    assert result.returncode == 0, result.stderr
+    assert 'timestep="0.001"' in (out / "mini" / "mini.xml").read_text()
+
+
+def test_an_arm_side_error_names_the_arm_s_xacro(project: Callable[..., Path]) -> None:
+    """An error in ur5.xacro's joints names ur5.xacro and the macro call's line, not ur5_svh.urdf.xacro."""
+    root = project()
+    ur5 = root / "xacro" / "ur5.xacro"
+    edit(ur5, 'effort="${effort}" velocity="${pi}"', 'effort="${-effort}" velocity="${pi}"')
+    line = next(n for n, text in enumerate(ur5.read_text().splitlines(), 1) if 'name="shoulder_pan_joint"' in text)
+    config_file, out = str(root / "config" / "svhdesc.yaml"), str(root / "out")
+    where = f"ur5.xacro:{line}: joint shoulder_pan_joint: effort must be >= 0"
+    fails_cleanly(None, "build", "ur5_svh_right", "--config", config_file, "--out", out, match=where)

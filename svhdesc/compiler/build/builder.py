@@ -8,7 +8,7 @@ from pathlib import Path
 from svhdesc.compiler.build import manifest as manifest_file
 from svhdesc.compiler.build.agreement import file_difference, manifest_difference
 from svhdesc.compiler.build.freshness import portable, sha256, svhdesc_version, tool_versions
-from svhdesc.compiler.build.outdir import output_directory, publish
+from svhdesc.compiler.build.outdir import output_directory, publish, require_exchange
 from svhdesc.compiler.build.pipeline import Compiled, compile_variants
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
@@ -62,12 +62,17 @@ def _write_all(
     extra_packages: dict[str, Path],
     hulls: HullSource,
     timings: Timings,
+    trust_out: bool = True,
 ) -> list[str]:
-    """Every selected variant into ``directory``/<variant>; ``out`` holds the committed outputs."""
+    """Every selected variant into ``directory``/<variant>; ``out`` holds the committed outputs.
+
+    ``trust_out`` False (``--check``): the hulls in ``out`` are under test, so they seed nothing.
+    """
     # Hulls are keyed by content (mesh, parameters, CoACD version), so the shipped models' committed hulls serve any
     # build, into any --out; the out's own come last and win.
-    shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent != out)
-    hulls.seed_from_outputs([*shipped, *(out / v.name for v in config.select(names))])
+    shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent.resolve() != out.resolve())
+    own = [out / v.name for v in config.select(names)] if trust_out else []
+    hulls.seed_from_outputs([*shipped, *own])
     written = []
     for compiled in compile_variants(config, names, extra_packages, hulls, timings):
         write_variant(compiled, directory / compiled.plan.variant.name, config.files, timings)
@@ -89,6 +94,7 @@ def build(
     """
     timings = timings or Timings()
     with output_directory(out) as staging:
+        require_exchange(staging, out, names)
         variants = _write_all(config, names, out, staging, extra_packages, hulls, timings)
         publish(staging, out, variants)
     return variants
@@ -102,11 +108,16 @@ def check(
     hulls: HullSource,
     timings: Timings | None = None,
 ) -> list[str]:
-    """Build into a temporary directory and list every file that differs from ``out``."""
+    """Build into a temporary directory and list every file that differs from ``out``.
+
+    Nothing in ``out`` is trusted, its manifest included: its hulls seed nothing (they come from the hull cache,
+    whose entries are checked, or from CoACD), so a hand-edited output shows as a difference whatever its
+    manifest says.
+    """
     timings = timings or Timings()
     with tempfile.TemporaryDirectory(prefix="svhdesc-check-") as tmp:
         fresh = Path(tmp)
-        variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings)
+        variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings, trust_out=False)
         differences = []
         for variant in variants:
             differences += _differences(fresh / variant, out / variant, variant)

@@ -3,8 +3,10 @@
 At every instant ``OUT/<variant>`` is the complete old or the complete new output, even if the
 build is killed (SIGKILL included): a new variant directory is staged in ``OUT/.svhdesc-build-*``
 and exchanged with the old one by one ``renameat2(RENAME_EXCHANGE)``, an atomic kernel operation
-(Linux >= 3.15, ext4/xfs/btrfs/tmpfs). Where that call is missing the old directory is moved
-aside first and a killed build's next run moves it back. Variant directories stay plain
+(Linux >= 3.15, ext4/xfs/btrfs/tmpfs). Where the filesystem cannot exchange (some network and FUSE
+filesystems), no two renames can keep that promise, so a build that would replace an existing
+variant there is refused before it writes anything, naming the filesystem; a variant that is new to
+``OUT`` is still renamed into place, which is atomic everywhere. Variant directories stay plain
 directories, so git, ``pip wheel`` and ``build --check`` see ordinary files.
 
 Builds into one ``OUT`` serialise on an ``flock`` of the directory itself (no lock file in it);
@@ -34,6 +36,8 @@ RENAME_EXCHANGE = 2
 # Test hook: after the first variant has been swapped in, pause until this file exists (60 s at most),
 # so that a test can kill the build there, or hold its lock.
 PAUSE_ENV = "SVHDESC_TEST_PAUSE_IN_SWAP"
+# Test hook: behave as on a filesystem without RENAME_EXCHANGE.
+NO_EXCHANGE_ENV = "SVHDESC_TEST_NO_EXCHANGE"
 
 
 def fs_error(path: Path, exc: OSError) -> SvhdescError:
@@ -46,7 +50,7 @@ def fs_error(path: Path, exc: OSError) -> SvhdescError:
 
 def _exchange(a: Path, b: Path) -> bool:
     """Atomically swap two paths; False if the kernel or filesystem cannot."""
-    if not sys.platform.startswith("linux"):
+    if not sys.platform.startswith("linux") or os.environ.get(NO_EXCHANGE_ENV):
         return False
     libc = ctypes.CDLL(None, use_errno=True)
     renameat2 = getattr(libc, "renameat2", None)
@@ -66,23 +70,66 @@ def swap_in(new: Path, target: Path) -> None:
     if not target.exists():
         os.rename(new, target)
         return
-    if _exchange(new, target):
+    if not _exchange(new, target):  # require_exchange() refused such a build before it began
+        raise SvhdescError(f"{target}: {filesystem(target)} cannot exchange directories atomically")
+
+
+def filesystem(path: Path) -> str:
+    """The type of the filesystem holding ``path`` ("filesystem 'nfs4' at /mnt"), from /proc/self/mountinfo."""
+    best, kind = "", "unknown"
+    try:
+        lines = Path("/proc/self/mountinfo").read_text().splitlines()
+    except OSError:
+        lines = []
+    resolved = str(path.resolve())
+    for line in lines:
+        fields = line.split()
+        if " - " not in line or len(fields) < 5:
+            continue
+        mount = fields[4].replace("\\040", " ")
+        inside = resolved == mount or resolved.startswith(mount.rstrip("/") + "/")
+        if inside and len(mount) >= len(best):
+            best, kind = mount, line.split(" - ", 1)[1].split()[0]
+    return f"filesystem {kind!r} at {best or '/'}"
+
+
+def require_exchange(staging: Path, out: Path, names: list[str]) -> None:
+    """Refuse, before anything is written, a build that would replace a variant where directories cannot be
+    exchanged atomically: two renames leave ``OUT/<variant>`` missing between them."""
+    replaced = [name for name in names if (out / name).exists()]
+    if not replaced:
         return
-    # Fallback: two renames; recover() undoes a kill between them.
-    retired = new.parent / f"{RETIRED_PREFIX}{target.name}"
-    os.rename(target, retired)
-    os.rename(new, target)
-    os.rename(retired, new)
+    a, b = staging / ".probe-a", staging / ".probe-b"
+    a.mkdir()
+    b.mkdir()
+    try:
+        if _exchange(a, b):
+            return
+    finally:
+        shutil.rmtree(a, ignore_errors=True)
+        shutil.rmtree(b, ignore_errors=True)
+    raise SvhdescError(
+        f"{out}: the {filesystem(out)} cannot exchange directories atomically (renameat2 RENAME_EXCHANGE), so "
+        f"{replaced[0]} cannot be replaced crash-safely there; build into a new --out, or remove {out / replaced[0]}"
+    )
 
 
 def recover(out: Path) -> None:
-    """Undo what a killed build left: put back a moved-aside variant, delete staging directories."""
+    """Undo what a killed build left: put back a variant an older release's two-rename swap moved aside, delete
+    staging directories."""
     for staging in sorted(out.glob(f"{STAGING_PREFIX}*")):
         for retired in staging.glob(f"{RETIRED_PREFIX}*"):
             target = out / retired.name.removeprefix(RETIRED_PREFIX)
             if not target.exists():
                 os.rename(retired, target)
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def tidy(out: Path) -> None:
+    """Remove what a killed build left in ``out`` (under the lock), also when nothing is to be built."""
+    if out.is_dir() and any(out.glob(f"{STAGING_PREFIX}*")):
+        with locked(out):
+            recover(out)
 
 
 @contextmanager

@@ -133,7 +133,7 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
         spec = load_spec(spec_path) if spec_path is not None else None
-    coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen")
+    coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen", settings.hand.at("prefix"))
     rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
     inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))

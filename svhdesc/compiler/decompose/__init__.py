@@ -18,7 +18,7 @@ serves every later build from ``HullCache``.  Results are a pure function of the
 
 from __future__ import annotations
 
-from svhdesc.compiler.decompose.cache import HullCache, cached_decompose
+from svhdesc.compiler.decompose.cache import CacheWarning, HullCache, cached_decompose
 from svhdesc.compiler.decompose.coacd_run import _close_holes, _hull, _merge_to_cap, bounded_hull, decompose
 from svhdesc.compiler.decompose.keys import cache_key
 from svhdesc.compiler.decompose.params import LINK_CLASS_PARAMS, DecompParams, DecompParamsError
@@ -26,6 +26,7 @@ from svhdesc.compiler.decompose.pool import parallel_decompose
 from svhdesc.compiler.source.meshes import mesh_from_stl as _mesh_from_stl
 
 __all__ = [
+    "CacheWarning",
     "LINK_CLASS_PARAMS",
     "DecompParams",
     "DecompParamsError",

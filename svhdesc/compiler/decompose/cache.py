@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import trimesh
 
 from svhdesc.compiler.decompose.coacd_run import _decompose_stl
@@ -22,6 +23,10 @@ from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.compiler.source.meshes import mesh_from_stl, stl_bytes
 
 # --------------------------------------------------------------------------- cache
+
+
+class CacheWarning(UserWarning):
+    """A cache entry failed its check and is rebuilt."""
 
 
 class HullCache:
@@ -61,8 +66,21 @@ class HullCache:
         try:
             return [mesh_from_stl(b) for b in blobs]
         except ValueError:
+            problem = f"hull cache entry {self.path(key)}: a hull does not parse; decomposing again"
+            warnings.warn(problem, CacheWarning, stacklevel=2)
             shutil.rmtree(self.path(key), ignore_errors=True)
             return None
+
+    def hulls_for(self, key: str, mesh: trimesh.Trimesh) -> list[trimesh.Trimesh] | None:
+        """``meshes(key)`` if they can be a decomposition of ``mesh``; an entry that cannot is dropped, with a
+        warning."""
+        hulls = self.meshes(key)
+        misfit = misfit_hulls(mesh, hulls) if hulls is not None else ""
+        if not misfit:
+            return hulls
+        warnings.warn(f"hull cache entry {self.path(key)}: {misfit}; decomposing again", CacheWarning, stacklevel=2)
+        shutil.rmtree(self.path(key), ignore_errors=True)
+        return None
 
     @staticmethod
     def key(mesh: trimesh.Trimesh, params: DecompParams) -> str:
@@ -79,40 +97,50 @@ class HullCache:
         return f"hull_{i:03d}.stl"
 
     def get(self, key: str) -> list[bytes] | None:
-        """The entry's hull STL bytes, or None on a miss (a corrupt/partial entry is deleted)."""
+        """The entry's hull STL bytes, or None on a miss.
+
+        An entry that fails its check (another key's entry, a file whose digest differs, a missing or an extra
+        file, unreadable JSON) is one warning, and is deleted so that it is rebuilt: never used.
+        """
         entry = self.path(key)
         if not entry.is_dir():
             return None
-        blobs = self._read_valid(entry, key)
+        blobs, problem = self._read_valid(entry, key)
         if blobs is None:
+            warnings.warn(f"hull cache entry {entry}: {problem}; decomposing again", CacheWarning, stacklevel=2)
             shutil.rmtree(entry, ignore_errors=True)
         return blobs
 
-    def _read_valid(self, entry: Path, key: str) -> list[bytes] | None:
+    def _read_valid(self, entry: Path, key: str) -> tuple[list[bytes] | None, str]:
+        """(the hull bytes, "") or (None, what is wrong with the entry)."""
         try:
             meta = json.loads((entry / self.ENTRY).read_text(encoding="utf-8"))
-            files = meta["files"]
-            count = meta["count"]
-            if (
-                meta.get("format") != self.FORMAT
-                or meta.get("key") != key
-                or not isinstance(count, int)
-                or count < 1
-                or not isinstance(files, list)
-                or len(files) != count
-            ):
-                return None
-            blobs = []
-            for i, item in enumerate(files):
-                if item["name"] != self._name(i):
-                    return None
-                data = (entry / item["name"]).read_bytes()
-                if hashlib.sha256(data).hexdigest() != item["sha256"]:
-                    return None
-                blobs.append(data)
-            return blobs
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):  # JSONDecodeError: ValueError
-            return None
+            files, count = meta["files"], meta["count"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:  # JSONDecodeError: ValueError
+            return None, f"unreadable {self.ENTRY} ({type(exc).__name__})"
+        if meta.get("format") != self.FORMAT or not isinstance(count, int) or count < 1:
+            return None, f"{self.ENTRY} is not of format {self.FORMAT}"
+        if meta.get("key") != key:
+            return None, f"it holds the entry of another key ({str(meta.get('key'))[:16]}...)"
+        if not isinstance(files, list) or len(files) != count:
+            return None, f"{self.ENTRY} lists {len(files) if isinstance(files, list) else 'no'} files for {count}"
+        expected = {self._name(i) for i in range(count)} | {self.ENTRY}
+        present = {p.name for p in entry.iterdir()}
+        if present - expected:
+            return None, f"extra file(s) {sorted(present - expected)}"
+        blobs = []
+        for i, item in enumerate(files):
+            name = self._name(i)
+            if not isinstance(item, dict) or item.get("name") != name:
+                return None, f"{self.ENTRY} misnames hull {i}"
+            try:
+                data = (entry / name).read_bytes()
+            except OSError:
+                return None, f"missing file {name}"
+            if hashlib.sha256(data).hexdigest() != item.get("sha256"):
+                return None, f"{name} does not match its digest"
+            blobs.append(data)
+        return blobs, ""
 
     def put(self, key: str, hull_stl_bytes: list[bytes], meta: Mapping[str, Any] | None = None) -> Path:
         """Store (or replace) an entry atomically; ``meta`` is kept in entry.json for humans."""
@@ -148,6 +176,26 @@ class HullCache:
         return final
 
 
+# A decomposition of a mesh covers it and stays within its bounds (CoACD's remesh moves the surface by less).
+FIT_TOLERANCE = 0.05  # of the mesh's largest extent
+
+
+def misfit_hulls(mesh: trimesh.Trimesh, hulls: list[trimesh.Trimesh]) -> str:
+    """Why ``hulls`` cannot be a decomposition of ``mesh`` ("" if they can): a cheap check of their bounds,
+    which catches an entry whose digests were rewritten to match the hulls of another mesh."""
+    low, high = (np.asarray(b, dtype=float) for b in mesh.bounds)
+    tolerance = FIT_TOLERANCE * float((high - low).max())
+    hull_low = np.min([h.bounds[0] for h in hulls], axis=0)
+    hull_high = np.max([h.bounds[1] for h in hulls], axis=0)
+    beyond = float(max((low - hull_low).max(), (hull_high - high).max()))
+    if beyond > tolerance:
+        return f"its hulls reach {beyond:.4g} m beyond the mesh's bounds"
+    uncovered = float(max((hull_low - low).max(), (high - hull_high).max()))
+    if uncovered > tolerance:
+        return f"its hulls leave {uncovered:.4g} m of the mesh's bounds uncovered"
+    return ""
+
+
 def _entry_meta(params: DecompParams) -> dict[str, Any]:
     return {
         "params": dataclasses.asdict(params),
@@ -171,7 +219,7 @@ def cached_decompose(
     stl = stl_bytes(mesh)
     key = _key_from_stl(stl, params)
     if cache is not None and not force:
-        hit = cache.meshes(key)
+        hit = cache.hulls_for(key, mesh)
         if hit is not None:
             return hit, True
     if stats is not None:

@@ -120,7 +120,7 @@ def _pending(
         if key in pending:
             pending[key][2].append(name)
             continue
-        hit = None if cache is None else cache.meshes(key)
+        hit = None if cache is None else cache.hulls_for(key, mesh)
         if hit is not None:
             results[name] = (hit, True)
             bar.step(f"{name} (cached)")

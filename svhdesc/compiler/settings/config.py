@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import sys
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -43,18 +44,34 @@ PYTHON = "python:"
 
 
 def resolve_path(value: str, config_dir: Path, at: str) -> Path:
-    """A path written in a config: relative to the config's folder, or ``python:MODULE/SUB``, a folder inside an
-    installed Python package, found where this Python has it (a wheel's data: never copied into a project)."""
+    """A path written in a config: relative to the config's folder, or ``python:NAME/SUB``, a folder of an installed
+    wheel, found where this Python has it (a wheel's data: never copied into a project). ``NAME`` is a top-level
+    folder of an import path: a package (``pybullet_data``) or a data folder no one imports
+    (``cmeel.prefix``, where example-robot-data installs its robots)."""
     if not value.startswith(PYTHON):
         return (config_dir / value).resolve()
-    module, _, sub = value.removeprefix(PYTHON).partition("/")
+    name, _, sub = value.removeprefix(PYTHON).partition("/")
+    folder = _installed_folder(name) if name and name not in (".", "..") else None
+    if folder is None:
+        raise SvhdescError(f"{at}: {value}: no installed Python package or data folder {name!r} (pip install it)")
+    return (folder / sub).resolve()
+
+
+def _installed_folder(name: str) -> Path | None:
+    """The folder ``name`` on this Python's import path, without importing anything (imports have side effects)."""
+    for entry in sys.path:
+        candidate = Path(entry or ".") / name
+        if entry and candidate.is_dir():
+            return candidate
+    if "." in name:
+        return None
     try:
-        spec = importlib.util.find_spec(module) if module else None  # locates a top-level package without importing it
+        spec = importlib.util.find_spec(name)  # a package elsewhere (an editable install): found, not imported
     except (ImportError, ValueError):
-        spec = None
+        return None
     if spec is None or not spec.submodule_search_locations:
-        raise SvhdescError(f"{at}: {value}: no installed Python package {module!r} (pip install it)")
-    return (Path(next(iter(spec.submodule_search_locations))) / sub).resolve()
+        return None
+    return Path(next(iter(spec.submodule_search_locations)))
 
 
 @dataclass(frozen=True)

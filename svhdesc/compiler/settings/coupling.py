@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -145,7 +146,18 @@ def _check_graph(couplings: list[Coupling], channels: set[str], lines: dict[str,
         )
 
 
-def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str | None, *, widen_limits: bool = False) -> Robot:
+def _refuse_prefix(prefix: str | None, prefix_at: str, joints: Mapping[str, object], wanted: str) -> None:
+    """A hand.prefix that begins no joint of the robot is the culprit, not the spec: say so at the config's line."""
+    if prefix and prefix_at and not any(name.startswith(f"{prefix}_") for name in joints):
+        raise SvhdescError(
+            f"{prefix_at}: hand.prefix {prefix!r} begins no joint of the robot (the coupling spec's first channel "
+            f"would be {wanted})"
+        )
+
+
+def apply_spec(
+    robot: Robot, spec: CouplingSpec, prefix: str | None, *, widen_limits: bool = False, prefix_at: str = ""
+) -> Robot:
     """Find the spec's joints in the robot, check the spec against it, and set every coupled joint's mimic.
 
     A spec name is the robot's joint ``<prefix>_<name>`` when the robot has that joint, else ``name`` itself:
@@ -161,6 +173,7 @@ def apply_spec(robot: Robot, spec: CouplingSpec, prefix: str | None, *, widen_li
     for channel in spec.channels:
         joint = joints.get(full(channel.name))
         if joint is None or not joint.movable:
+            _refuse_prefix(prefix, prefix_at, joints, f"{full(channel.name)} ({spec.lines[channel.name]})")
             raise SvhdescError(f"{spec.lines[channel.name]}: unknown joint {full(channel.name)} (channel)")
         if channel.lower < joint.lower - LIMIT_TOL or channel.upper > joint.upper + LIMIT_TOL:
             raise SvhdescError(

@@ -26,6 +26,12 @@ def _fail(at: str, message: str) -> SvhdescError:
     return SvhdescError(f"{at} {message}")
 
 
+def _shown(value: Any) -> str:
+    """``repr`` of a value, cut short: a 400-digit integer is no message."""
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:20]}... ({len(text)} characters)"
+
+
 def number(minimum: float | None = None, maximum: float | None = None, *, strict: bool = False) -> Check:
     """A finite real number (not a bool), optionally >= or > ``minimum`` and <= ``maximum``.
 
@@ -35,9 +41,12 @@ def number(minimum: float | None = None, maximum: float | None = None, *, strict
     def check(value: Any, at: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise _fail(at, f"must be a number, got {value!r}")
-        result = float(value)
+        try:
+            result = float(value)
+        except OverflowError:  # an integer beyond any float
+            result = math.inf
         if not math.isfinite(result):
-            raise _fail(at, f"must be finite, got {value!r}")
+            raise _fail(at, f"must be finite, got {_shown(value)}")
         if minimum is not None and (result <= minimum if strict else result < minimum):
             raise _fail(at, f"must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
         if maximum is not None and result > maximum:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +47,23 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode):  # type: ignore[no-
 
 _Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
 
+# YAML 1.1 reads ``1e-3`` (no dot) as text; every user means the number, as YAML 1.2 and JSON do.
+_FLOAT = re.compile(r"^[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?[eE][-+]?[0-9]+$")
+_Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
+def _construct_int(loader: _Loader, node: yaml.ScalarNode) -> int:
+    try:
+        return yaml.SafeLoader.construct_yaml_int(loader, node)
+    except ValueError:  # Python refuses to read integers of over 4300 digits
+        raise SvhdescError(
+            f"{loader.name}:{node.start_mark.line + 1}: integer {node.value[:20]}... is too long"
+        ) from None
+
+
+_Loader.add_constructor("tag:yaml.org,2002:int", _construct_int)
+
 
 def load_yaml(path: Path) -> Any:
     try:
@@ -64,6 +82,8 @@ def load_yaml(path: Path) -> Any:
         raise SvhdescError(f"{path}{line}: invalid YAML ({exc.problem})") from None
     except yaml.YAMLError as exc:
         raise SvhdescError(f"{path}: invalid YAML ({exc})") from None
+    except RecursionError:
+        raise SvhdescError(f"{path}: invalid YAML (nested too deeply)") from None
     finally:
         loader.dispose()
 

@@ -45,6 +45,8 @@ def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:
     """Turn a mesh URI (package://, file://, absolute or relative path) into a file path."""
     if uri.startswith("package://"):
         name, _, rest = uri[len("package://") :].partition("/")
+        if not name:  # package:///NAME/... (a slash too many, as in example-robot-data's Talos): ROS tools read NAME
+            name, _, rest = rest.lstrip("/").partition("/")
         return find_package(name, packages, where) / rest
     if uri.startswith("file://"):
         return Path(uri[len("file://") :])

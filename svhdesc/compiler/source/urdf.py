@@ -65,6 +65,8 @@ def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nt
             [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')]
             + [re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}_?{re.escape(tail)}"') for tail in tails[1:]]
             + [re.compile(rf'<xacro:\w+\b[^>]*\bname="{re.escape(tail)}"') for tail in tails[1:]]
+            # a macro call passing the whole name in any argument (<xacro:ur5_body link="upper_arm_link" ...>)
+            + [re.compile(rf'<xacro:\w+\b[^>]*\b[\w-]+="{re.escape(name)}"')]
         )
         texts = []
         for file in files:

@@ -55,7 +55,9 @@ def expand_xacro(
             raise failures[0] from None
         where = Path(xacro.filestack[-1]) if xacro.filestack else path
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        quoted = re.search(r"'([^']+)'", message)
+        # xacro names the failing expression on a later line ("when evaluating expression '1/0'"): find that.
+        expression = re.search(r"when evaluating expression '(.+)'", str(exc))
+        quoted = expression or re.search(r"'([^']+)'", message)
         token = quoted.group(1) if quoted else None
         # A macro's body fails where it is called: look for the culprit in the included files too.
         files = [where, *(Path(f) for f in xacro.all_includes if Path(f) != where)]

@@ -85,7 +85,7 @@ def _solref(values: list[float] | None) -> tuple[float, float] | None:
 def add_keyframes(robot: Robot, assets: Assets, section: tuple[dict[str, Any], Hand, Arm]) -> Robot:
     """Keyframes name hand channels by channel name (a joint's own name otherwise); arm joints the variant
     lacks are left out."""
-    keyframes, _, arm = section
+    keyframes, hand, arm = section
     optional = set(arm.joints)
     channel_joint = {c.name: c.joint for c in robot.channels}
     channel_names = set(channel_joint)
@@ -95,14 +95,15 @@ def add_keyframes(robot: Robot, assets: Assets, section: tuple[dict[str, Any], H
         positions = {}
         for key, value in (values or {}).items():
             joint = channel_joint.get(key, key)
+            if joint not in movable and hand.prefix and f"{hand.prefix}_{key}" in movable:
+                joint = f"{hand.prefix}_{key}"  # a hand joint by its spec name (j2 for right_hand_j2)
             if joint in movable:
                 if joint not in {c.joint for c in robot.channels} and robot.joint(joint).mimic:
-                    raise SvhdescError(
-                        f"{where(values, 'keyframes')}: keyframe {name}: {key} is coupled; give its channel instead"
-                    )
+                    at = where(values, "keyframes", key)
+                    raise SvhdescError(f"{at}: keyframe {name}: {key} is a coupled joint; give its channel instead")
                 positions[joint] = float(value)
             elif key not in optional and key not in channel_names:
-                raise SvhdescError(f"{where(values, 'keyframes')}: keyframe {name}: unknown joint {key}")
+                raise SvhdescError(f"{where(values, 'keyframes', key)}: keyframe {name}: unknown joint {key}")
         full = propagate(robot, positions)
         frames.append(Keyframe(name, tuple((j.name, full[j.name]) for j in robot.joints if j.movable)))
     return replace(robot, keyframes=tuple(frames))

@@ -18,12 +18,15 @@ class Coupled:
     spec: CouplingSpec | None  # None: a robot without couplings
     prefix: str | None
     widen_limits: bool
+    prefix_at: str = ""  # file:line of hand.prefix, for a prefix that names no joint
 
 
 def couple(robot: Robot, assets: Assets, section: Coupled) -> Robot:
     if section.spec is None:
         return robot
-    robot = apply_spec(robot, section.spec, section.prefix, widen_limits=section.widen_limits)
+    robot = apply_spec(
+        robot, section.spec, section.prefix, widen_limits=section.widen_limits, prefix_at=section.prefix_at
+    )
     for problem in mimic_order_problems(robot):
         # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
         warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)

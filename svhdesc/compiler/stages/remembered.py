@@ -11,6 +11,7 @@ import hashlib
 import json
 import os
 import tempfile
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -39,17 +40,51 @@ def content_key(parts: Iterable[bytes], assets: dict[str, bytes]) -> str:
 def remembered(
     cache: Path, key: str, compute: Callable[[], T], encode: Callable[[T], Any], decode: Callable[[Any], T]
 ) -> T:
+    """``compute()``'s result, from the entry ``key`` when it holds one that passes its check.
+
+    An entry names its key and carries the digest of its value: another key's entry (a copied file) or an edited
+    value is one warning and is computed again, never used.
+    """
     entry = cache / f"{key}.json"
-    try:
-        return decode(json.loads(entry.read_text()))
-    except (OSError, ValueError, TypeError, KeyError):
-        pass
+    found = _read(entry, key)
+    if found is not None:
+        try:
+            return decode(found)
+        except (ValueError, TypeError, KeyError):
+            warnings.warn(f"cache entry {entry}: its value does not decode; computing it again", stacklevel=2)
     result = compute()
+    value = encode(result)
+    document = {"key": key, "sha256": _digest(value), "value": value}
     try:
         cache.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("w", dir=cache, suffix=".tmp", delete=False) as handle:
-            json.dump(encode(result), handle)
+            json.dump(document, handle)
         os.replace(handle.name, entry)  # a reader sees a whole entry or none
     except OSError:
         pass
     return result
+
+
+def _digest(value: Any) -> str:
+    return hashlib.sha256(json.dumps(value, sort_keys=True).encode()).hexdigest()
+
+
+def _read(entry: Path, key: str) -> Any:
+    """The entry's value, or None: missing (silently) or failing its check (with a warning)."""
+    try:
+        document = json.loads(entry.read_text())
+    except (FileNotFoundError, NotADirectoryError):  # no entry, or no cache folder: a plain miss
+        return None
+    except (OSError, ValueError) as exc:
+        problem = f"unreadable ({type(exc).__name__})"
+    else:
+        if not isinstance(document, dict) or "value" not in document:
+            problem = "not an entry of this version"
+        elif document.get("key") != key:
+            problem = f"it holds the entry of another key ({str(document.get('key'))[:16]}...)"
+        elif document.get("sha256") != _digest(document["value"]):
+            problem = "its value does not match its digest"
+        else:
+            return document["value"]
+    warnings.warn(f"cache entry {entry}: {problem}; computing it again", stacklevel=3)
+    return None

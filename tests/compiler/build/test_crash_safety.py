@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from svhdesc.compiler.build.outdir import PAUSE_ENV, STAGING_PREFIX, recover
-from tests.support import REPO, run_cli
+from svhdesc.compiler.build.outdir import NO_EXCHANGE_ENV, PAUSE_ENV, STAGING_PREFIX, recover
+from tests.support import REPO, fails_cleanly, run_cli, snapshot
 
 
 @pytest.fixture
@@ -248,3 +248,60 @@ def test_a_full_cache_warns_once_and_the_build_goes_on(tmp_path: Path, mini: Cal
     warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
     assert len(warnings) == 1 and "building without caching" in warnings[0], result.stderr
     complete(tmp_path / "out" / "mini")
+
+
+NO_EXCHANGE = {NO_EXCHANGE_ENV: "1"}
+
+
+def test_without_rename_exchange_a_replacing_build_is_refused_before_it_writes(
+    tmp_path: Path, mini: Callable[..., Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Where directories cannot be exchanged, two renames would leave OUT/<variant> missing between them: such a
+    build is refused up front, naming the filesystem, with OUT untouched (seeded fault: require_exchange() not
+    called, and the build reaches swap_in's own refusal only after writing its staging folder)."""
+    root, out = mini(), tmp_path / "out"
+    monkeypatch.setenv(NO_EXCHANGE_ENV, "1")
+    assert build(root, out).returncode == 0  # new variants are renamed into place: atomic everywhere
+    assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]
+    before = snapshot(out)
+    args = ("build", "--config", str(root / "mini.yaml"), "--out", str(out), "--force")
+    fails_cleanly(out, *args, match="cannot exchange directories atomically")
+    error = fails_cleanly(out, *args, match="filesystem '")
+    assert str(out) in error and "mini" in error
+    assert snapshot(out) == before  # no staging folder left, nothing swapped
+
+
+@pytest.mark.slow
+def test_sigkill_at_every_moment_of_a_build_without_rename_exchange(tmp_path: Path, mini: Callable[..., Path]) -> None:
+    """Forced onto the no-exchange path, a build killed at any moment leaves each variant whole or absent (new
+    variants, renamed in), and the next build finishes the job."""
+    root = mini()
+    for delay in (0.3, 0.8, 1.5, 2.5):
+        out = tmp_path / f"out-{delay}"
+        process = start(root, out, env=NO_EXCHANGE)
+        time.sleep(delay)
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+        for name in ("mini", "mini_1"):
+            if (out / name).exists():
+                assert complete(out / name) == "1"
+        result = build(root, out, env=NO_EXCHANGE, own_process=True)
+        assert result.returncode == 0, result.stderr
+        assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]
+
+
+def test_a_killed_build_s_staging_folder_goes_even_when_all_is_up_to_date(
+    tmp_path: Path, mini: Callable[..., Path]
+) -> None:
+    """A build killed right after its last swap leaves its staging folder; the next build (up to date, so it
+    builds nothing) and --check remove it (seeded fault: tidy() not called before the freshness shortcut)."""
+    root, out = mini(), tmp_path / "out"
+    assert build(root, out).returncode == 0
+    for command in ((), ("--check",)):
+        leftover = out / f"{STAGING_PREFIX}killed"
+        (leftover / "mini").mkdir(parents=True)
+        (leftover / "mini" / "big.stl").write_bytes(b"x" * 1000)
+        result = build(root, out, *command)
+        assert result.returncode == 0, result.stderr
+        assert not leftover.exists(), command
+        assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]

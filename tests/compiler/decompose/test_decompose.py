@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import json
+import shutil
 from collections import Counter
 from pathlib import Path
 
@@ -272,12 +273,61 @@ def test_damaged_entry_is_rebuilt(tmp_path: Path, l_shape: trimesh.Trimesh, dama
     good, _ = cached_decompose(l_shape, FAST, cache)
     entry = _entry(cache, l_shape, FAST)
     damage(entry)
-    assert cache.get(cache.key(l_shape, FAST)) is None
+    with pytest.warns(dec.CacheWarning, match="decomposing again") as caught:
+        assert cache.get(cache.key(l_shape, FAST)) is None
+    assert len(caught) == 1  # one line per entry
     assert not entry.exists()  # deleted, not left to fail again
     runs = Counter()
     rebuilt, hit = cached_decompose(l_shape, FAST, cache, stats=runs)
     assert not hit and runs["decomposed"] == 1
     assert _blobs(rebuilt) == _blobs(good)
+    assert cached_decompose(l_shape, FAST, cache)[1]
+
+
+def _forge_from_other(cache: HullCache, entry: Path, other: Path) -> None:
+    """Another entry's files in this entry's place (its entry.json names the other key)."""
+    shutil.rmtree(entry)
+    shutil.copytree(other, entry)
+
+
+def _forge_consistently(cache: HullCache, entry: Path, other: Path) -> None:
+    """Another entry's hulls with this entry's key and their own digests: every digest in entry.json matches."""
+    _forge_from_other(cache, entry, other)
+    meta = json.loads((entry / "entry.json").read_text())
+    meta["key"] = entry.name
+    (entry / "entry.json").write_text(json.dumps(meta))
+
+
+def _extra_file(cache: HullCache, entry: Path, other: Path) -> None:
+    (entry / "hull_099.stl").write_bytes((entry / "hull_000.stl").read_bytes())
+
+
+@pytest.mark.parametrize(
+    ("forge", "problem"),
+    [
+        (_forge_from_other, "another key"),
+        (_forge_consistently, "beyond the mesh's bounds"),
+        (_extra_file, "extra file"),
+    ],
+)
+def test_forged_or_extended_entry_is_never_used(
+    tmp_path: Path, l_shape: trimesh.Trimesh, annulus: trimesh.Trimesh, forge, problem: str
+) -> None:
+    """An entry holding what its key's decomposition is not is one warning and decomposed again (seeded fault: any
+    of the entry checks removed from HullCache, and the forged hulls come back as a hit)."""
+    cache = HullCache(tmp_path)
+    good, _ = cached_decompose(l_shape, FAST, cache)
+    cached_decompose(annulus, FAST, cache)
+    forge(cache, _entry(cache, l_shape, FAST), _entry(cache, annulus, FAST))
+    runs = Counter()
+    with pytest.warns(dec.CacheWarning, match=problem) as caught:
+        rebuilt, hit = cached_decompose(l_shape, FAST, cache, stats=runs)
+    assert len(caught) == 1
+    assert not hit and runs["decomposed"] == 1
+    assert _blobs(rebuilt) == _blobs(good)
+    assert sorted(p.name for p in _entry(cache, l_shape, FAST).iterdir()) == sorted(
+        ["entry.json", *(f"hull_{i:03d}.stl" for i in range(len(good)))]
+    )  # healed: the extra file went with the entry
     assert cached_decompose(l_shape, FAST, cache)[1]
 
 

@@ -44,6 +44,26 @@ def test_hit_miss_and_broken_entry(tmp_path: Path) -> None:
     assert remembered(unwritable / "cache", "k", compute, dict, dict) == {"n": 4}  # no cache: still a result
 
 
+def test_a_forged_or_edited_entry_is_computed_again(tmp_path: Path) -> None:
+    """Another key's entry copied into place, or an edited value, is one warning and never used (seeded fault: the
+    key or digest comparison removed from remembered._read, and the forged value comes back)."""
+    values = iter(range(100))
+
+    def ask(key: str) -> dict[str, int]:
+        return remembered(tmp_path, key, lambda: {"n": next(values)}, dict, dict)
+
+    assert ask("k1") == {"n": 0} and ask("k2") == {"n": 1}
+    (tmp_path / "k1.json").write_bytes((tmp_path / "k2.json").read_bytes())
+    with pytest.warns(UserWarning, match="another key") as caught:
+        assert ask("k1") == {"n": 2}
+    assert len(caught) == 1
+    entry = tmp_path / "k2.json"
+    entry.write_text(entry.read_text().replace('"n": 1', '"n": 7'))
+    with pytest.warns(UserWarning, match="does not match its digest"):
+        assert ask("k2") == {"n": 3}
+    assert ask("k1") == {"n": 2} and ask("k2") == {"n": 3}  # healed: hits again
+
+
 def test_batch_capacities_are_sampled_once_per_content(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path))
     sampled: list[bytes] = []
