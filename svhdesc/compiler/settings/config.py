@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import site
+import sysconfig
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -43,18 +45,42 @@ PYTHON = "python:"
 
 
 def resolve_path(value: str, config_dir: Path, at: str) -> Path:
-    """A path written in a config: relative to the config's folder, or ``python:MODULE/SUB``, a folder inside an
-    installed Python package, found where this Python has it (a wheel's data: never copied into a project)."""
+    """A path written in a config: relative to the config's folder, or ``python:NAME/SUB``, found where this Python
+    has it (a wheel's data: never copied into a project). NAME is an installed top-level package (its folder), else
+    a folder directly in site-packages: wheels such as example-robot-data install data, not packages
+    (``python:cmeel.prefix/share/example-robot-data``)."""
     if not value.startswith(PYTHON):
         return (config_dir / value).resolve()
-    module, _, sub = value.removeprefix(PYTHON).partition("/")
+    name, _, sub = value.removeprefix(PYTHON).partition("/")
+    folder = _package_folder(name) or _site_folder(name)
+    if folder is None:
+        raise SvhdescError(
+            f"{at}: {value}: no installed Python package or site-packages folder {name!r} (pip install it)"
+        )
+    return (folder / sub).resolve()
+
+
+def _package_folder(name: str) -> Path | None:
+    """The folder of the top-level package ``name``, located without importing anything (a dotted name would import
+    its parent: cmeel's import leaves a temporary folder behind)."""
+    if not name.isidentifier():
+        return None
     try:
-        spec = importlib.util.find_spec(module) if module else None  # locates a top-level package without importing it
+        spec = importlib.util.find_spec(name)
     except (ImportError, ValueError):
-        spec = None
+        return None
     if spec is None or not spec.submodule_search_locations:
-        raise SvhdescError(f"{at}: {value}: no installed Python package {module!r} (pip install it)")
-    return (Path(next(iter(spec.submodule_search_locations))) / sub).resolve()
+        return None
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def _site_folder(name: str) -> Path | None:
+    """A folder ``name`` directly in one of this Python's site-packages (purelib, platlib, the user's)."""
+    if not name or name in {".", ".."}:
+        return None
+    paths = sysconfig.get_paths()
+    roots = [paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()]
+    return next((Path(r) / name for r in dict.fromkeys(roots) if (Path(r) / name).is_dir()), None)
 
 
 @dataclass(frozen=True)
