@@ -255,8 +255,8 @@ SIDES = ("right", "left")
 class Mount(Located):
     """Where this project's SVH goes on an arm read from any URDF or xacro (the variant's ``xacro``): fixed to the
     arm's link ``parent`` at ``xyz`` (m) / ``rpy`` (rad, URDF order), the ``side`` hand, its links and joints named
-    ``<prefix>_...`` (default: hand.prefix, else ``<side>_hand``). ``remove``: arm links dropped with every link
-    below them (the arm's own gripper, which the SVH replaces)."""
+    ``<prefix>_...`` (default: hand.prefix, else ``<side>_hand``; written, it overrides hand.prefix). ``remove``:
+    arm links dropped with every link below them (the arm's own gripper, which the SVH replaces)."""
 
     parent: str = _field(None, text, required=True)
     xyz: list[float] = _field([0.0, 0.0, 0.0], numbers((3,), number(-10.0, 10.0)))
@@ -484,12 +484,8 @@ def normalise(settings: dict[str, Any], at: str) -> Settings:
 
 
 def mounted_prefix(mount: Mount, hand: Hand) -> str:
-    """The mounted hand's prefix: written in mount or in hand (the two must agree), else ``<side>_hand``."""
-    if mount.prefix and hand.prefix and mount.prefix != hand.prefix:
-        raise SvhdescError(
-            f"{mount.at('prefix')}: mount.prefix {mount.prefix!r} differs from hand.prefix {hand.prefix!r} "
-            f"({hand.at('prefix')}): write one of them"
-        )
+    """The mounted hand's prefix: mount.prefix (it overrides hand.prefix, which a base config may set for its own
+    hands), else hand.prefix, else ``<side>_hand``."""
     prefix = mount.prefix or hand.prefix or f"{mount.side}_hand"
     other = SIDES[1 - SIDES.index(mount.side)]
     if prefix.startswith(other):  # e.g. a base config's right_hand inherited by a left mount
