@@ -18,7 +18,7 @@ The same functions are exported lazily from ``svhdesc`` (``svhdesc.load_pybullet
 from __future__ import annotations
 
 from svhdesc.loaders._common import couplings
-from svhdesc.loaders.attach import attach
+from svhdesc.loaders.hand_on_arm import attach
 from svhdesc.loaders.dart import load_dart
 from svhdesc.loaders.drake import DrakeRobot, load_drake
 from svhdesc.loaders.mujoco import load_mujoco
