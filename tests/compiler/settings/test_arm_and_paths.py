@@ -99,6 +99,8 @@ def test_an_arm_switched_off_is_named_as_the_way_out(tmp_path: Path) -> None:
 
 def test_an_undriven_joint_names_the_keys_that_would_drive_it(tmp_path: Path) -> None:
     source = project(tmp_path)
-    (source / "mini.yaml").write_text(NO_HAND.replace("joints: [right_hand_A, right_hand_j2]", "joints: [right_hand_A]"))
+    (source / "mini.yaml").write_text(
+        NO_HAND.replace("joints: [right_hand_A, right_hand_j2]", "joints: [right_hand_A]")
+    )
     error = fails_cleanly(None, "build", "--config", str(source / "mini.yaml"), "--out", str(tmp_path / "o"), match="")
     assert "joint right_hand_j2: is neither" in error and "list it in arm.joints" in error and "coupled joint" in error
