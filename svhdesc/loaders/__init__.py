@@ -18,9 +18,9 @@ The same functions are exported lazily from ``svhdesc`` (``svhdesc.load_pybullet
 from __future__ import annotations
 
 from svhdesc.loaders._common import couplings
-from svhdesc.loaders.hand_on_arm import attach
 from svhdesc.loaders.dart import load_dart
 from svhdesc.loaders.drake import DrakeRobot, load_drake
+from svhdesc.loaders.hand_on_arm import attach
 from svhdesc.loaders.mujoco import load_mujoco
 from svhdesc.loaders.pinocchio import load_pinocchio
 from svhdesc.loaders.pybullet import PybulletRobot, load_pybullet
