@@ -16,7 +16,10 @@ import svhdesc
 from tests.support import VENDOR_UR, run_cli
 
 mujoco = pytest.importorskip("mujoco")
-pytestmark = pytest.mark.slow  # builds the UR5 alone (about 10 s)
+pytestmark = [
+    pytest.mark.slow,  # builds the UR5 alone (about 10 s)
+    pytest.mark.filterwarnings("ignore:Attaching a spec with an empty prefix"),  # the driver's names kept on purpose
+]
 
 UR5 = Path(__file__).parents[2] / "examples" / "ur5" / "ur5.yaml"
 
