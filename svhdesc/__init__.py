@@ -8,6 +8,7 @@ m = svhdesc.load_mujoco("svh_right")    # imports mujoco only here
 model.package_name                      # each variant folder is a ROS package (package://NAME/assets/...)
 model.absolute_urdf_path()              # the URDF with absolute mesh paths, for tools without ROS
 svhdesc.load_pinocchio, svhdesc.load_pybullet, svhdesc.load_drake, svhdesc.load_dart  # see svhdesc.loaders
+spec = svhdesc.attach("arm.xml", "svh_right", parent="tool0", pos=(0, 0, 0.032))  # mujoco.MjSpec (docs/arms.md)
 """
 
 from __future__ import annotations
@@ -25,13 +26,14 @@ __all__ = [
     "load_pybullet",
     "load_drake",
     "load_dart",
+    "attach",
     "URDF_PATH",
     "MJCF_PATH",
     "SCENE_PATH",
 ]
 
 
-_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart"}
+_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart", "attach"}
 
 
 def __getattr__(attr: str) -> Any:

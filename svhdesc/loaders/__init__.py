@@ -10,6 +10,8 @@ naming the pip extra) and honours the hand's 11 couplings (the URDF's ``<mimic>`
     drake = load_drake("svh_right", time_step=1e-3)    # DrakeRobot(builder, plant, scene_graph, instance)
     skeleton = load_dart("svh_right")                  # dartpy Skeleton, coupler constraints
 
+``attach(arm, "svh_right", parent=BODY, pos=..., quat=...)`` fixes a built hand to any MJCF arm (mujoco.MjSpec).
+
 The same functions are exported lazily from ``svhdesc`` (``svhdesc.load_pybullet`` ...).
 """
 
@@ -18,6 +20,7 @@ from __future__ import annotations
 from svhdesc.loaders._common import couplings
 from svhdesc.loaders.dart import load_dart
 from svhdesc.loaders.drake import DrakeRobot, load_drake
+from svhdesc.loaders.hand_on_arm import attach
 from svhdesc.loaders.mujoco import load_mujoco
 from svhdesc.loaders.pinocchio import load_pinocchio
 from svhdesc.loaders.pybullet import PybulletRobot, load_pybullet
@@ -27,6 +30,7 @@ __all__ = [
     "Coupling",
     "DrakeRobot",
     "PybulletRobot",
+    "attach",
     "couplings",
     "load_dart",
     "load_drake",

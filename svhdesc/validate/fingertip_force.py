@@ -22,6 +22,7 @@ from svhdesc.validate.handsim import (
     channel_jacobian,
     configured_channels,
     find_hand,
+    hold_arm,
     set_channels,
 )
 from svhdesc.validate.options import Options
@@ -72,6 +73,7 @@ def press(mjcf: Path, channel: str) -> Press:
         raise ValueError("no SVH hand (9 channel actuators) in the model")
     data = mujoco.MjData(base)
     pose = start_pose(hand, base, channel)
+    hold_arm(base, data, hand)
     set_channels(base, data, hand, pose)
     mujoco.mj_forward(base, data)
     point, normal, lever = contact_point(base, data, hand, channel)
@@ -98,6 +100,7 @@ def press(mjcf: Path, channel: str) -> Press:
     model = spec.compile()
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
+    hold_arm(model, data, hand)
     set_channels(model, data, hand, pose)
     data.ctrl[hand.actuators[channel]] = model.actuator_ctrlrange[hand.actuators[channel]][1]
     plate = int(model.geom("fingertip_force_plate").id)

@@ -118,6 +118,28 @@ def set_channels(model: Any, data: Any, hand: Hand, targets: dict[str, float]) -
     data.qvel[:] = 0.0
 
 
+def hold_arm(model: Any, data: Any, hand: Hand) -> None:
+    """The arm, if any, at its keyframe ``home`` (a pose its config declares clear of itself; qpos 0 may lie outside
+    an arm joint's range, as the Panda's elbow's, or fold the arm onto the hand) with every servo that is not the
+    hand's commanded there: the arm stays put while the hand works."""
+    import mujoco
+
+    mine = set(hand.actuators.values())
+    if len(mine) == model.nu:
+        return
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    if home >= 0:
+        data.qpos[:] = model.key_qpos[home]
+    for actuator in range(model.nu):
+        if actuator in mine:
+            continue
+        joint = int(model.actuator_trnid[actuator, 0])
+        address = model.jnt_qposadr[joint]
+        if model.jnt_limited[joint]:
+            data.qpos[address] = np.clip(data.qpos[address], *model.jnt_range[joint])
+        data.ctrl[actuator] = data.qpos[address]
+
+
 def channel_jacobian(model: Any, data: Any, hand: Hand, channel: str, point: np.ndarray, body: int) -> np.ndarray:
     """d(point)/d(channel), its coupled joints following (point fixed to ``body``, world frame)."""
     import mujoco

@@ -25,6 +25,7 @@ from svhdesc.compiler.settings.config import Config, Variant
 from svhdesc.compiler.settings.coupling import load_spec
 from svhdesc.compiler.settings.schema import Settings
 from svhdesc.compiler.settings.yamlio import where
+from svhdesc.compiler.source import mount as mount_source
 from svhdesc.compiler.source.packages import resolve_uri
 from svhdesc.compiler.source.urdf import read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
@@ -94,7 +95,7 @@ PROCESSORS: tuple[Processor, ...] = (
 
 CHECKS: tuple[Check, ...] = (
     Check(check_hand_names, lambda plan: plan.settings.hand),
-    Check(check_driven),
+    Check(check_driven, lambda plan: plan.settings.arm),
     Check(check_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.where)),
     Check(check_unique_names, lambda plan: (plan.settings.hand, plan.settings.arm)),
     Check(check_finite),
@@ -118,16 +119,30 @@ class Source:
 
 
 def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
+    """The variant's robot as read; with a ``mount``, the arm of its xacro with this project's hand grafted on."""
+    arm = _read(variant.xacro, variant.args, packages, timings)
+    mount = variant.settings.mount
+    if mount is None:
+        return replace(arm, robot=replace(arm.robot, name=variant.name))
+    args = mount_source.hand_args(mount, str(variant.settings.hand.prefix))
+    hand = _read(mount_source.hand_xacro(), args, mount_source.hand_packages(packages), timings)
+    robot = mount_source.graft(arm.robot, hand.robot, mount)
+    return Source(replace(robot, name=variant.name), list(dict.fromkeys([*arm.inputs, *hand.inputs])))
+
+
+def _read(xacro: Path, args: dict[str, str], packages: dict[str, Path], timings: Timings) -> Source:
     with timings.stage("xacro"):
-        tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
+        tree, inputs = expand_xacro(xacro, args, packages)
     with timings.stage("read"):
-        robot = replace(read_urdf(tree, packages, variant.xacro, inputs), name=variant.name)
-    return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
+        robot = read_urdf(tree, packages, xacro, inputs)
+    return Source(robot, [*inputs, *_mesh_sources(tree, packages, xacro)])
 
 
 def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
     """Read ``variant`` and decide its collision rules once: they serve the prefetch and the compile."""
     packages = {**variant.packages(), **extra_packages}
+    if variant.settings.mount is not None:
+        packages = mount_source.hand_packages(packages)
     source = read_source(variant, packages, timings)
     settings = variant.settings
     spec_path = variant.coupling_path  # None: a robot without couplings

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import copy
 import importlib.util
-import sys
+import site
+import sysconfig
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -44,34 +45,42 @@ PYTHON = "python:"
 
 
 def resolve_path(value: str, config_dir: Path, at: str) -> Path:
-    """A path written in a config: relative to the config's folder, or ``python:NAME/SUB``, a folder of an installed
-    wheel, found where this Python has it (a wheel's data: never copied into a project). ``NAME`` is a top-level
-    folder of an import path: a package (``pybullet_data``) or a data folder no one imports
-    (``cmeel.prefix``, where example-robot-data installs its robots)."""
+    """A path written in a config: relative to the config's folder, or ``python:NAME/SUB``, found where this Python
+    has it (a wheel's data: never copied into a project). NAME is an installed top-level package (its folder), else
+    a folder directly in site-packages: wheels such as example-robot-data install data, not packages
+    (``python:cmeel.prefix/share/example-robot-data``)."""
     if not value.startswith(PYTHON):
         return (config_dir / value).resolve()
     name, _, sub = value.removeprefix(PYTHON).partition("/")
-    folder = _installed_folder(name) if name and name not in (".", "..") else None
+    folder = _package_folder(name) or _site_folder(name)
     if folder is None:
-        raise SvhdescError(f"{at}: {value}: no installed Python package or data folder {name!r} (pip install it)")
+        raise SvhdescError(
+            f"{at}: {value}: no installed Python package or site-packages folder {name!r} (pip install it)"
+        )
     return (folder / sub).resolve()
 
 
-def _installed_folder(name: str) -> Path | None:
-    """The folder ``name`` on this Python's import path, without importing anything (imports have side effects)."""
-    for entry in sys.path:
-        candidate = Path(entry or ".") / name
-        if entry and candidate.is_dir():
-            return candidate
-    if "." in name:
+def _package_folder(name: str) -> Path | None:
+    """The folder of the top-level package ``name``, located without importing anything (a dotted name would import
+    its parent: cmeel's import leaves a temporary folder behind)."""
+    if not name.isidentifier():
         return None
     try:
-        spec = importlib.util.find_spec(name)  # a package elsewhere (an editable install): found, not imported
+        spec = importlib.util.find_spec(name)
     except (ImportError, ValueError):
         return None
     if spec is None or not spec.submodule_search_locations:
         return None
     return Path(next(iter(spec.submodule_search_locations)))
+
+
+def _site_folder(name: str) -> Path | None:
+    """A folder ``name`` directly in one of this Python's site-packages (purelib, platlib, the user's)."""
+    if not name or name in {".", ".."}:
+        return None
+    paths = sysconfig.get_paths()
+    roots = [paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()]
+    return next((Path(r) / name for r in dict.fromkeys(roots) if (Path(r) / name).is_dir()), None)
 
 
 @dataclass(frozen=True)

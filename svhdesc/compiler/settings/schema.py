@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from svhdesc.compiler.settings.yamlio import Node, where
@@ -240,7 +240,10 @@ class Hand(Located):
 
 @dataclass(frozen=True)
 class Arm(Located):
-    enabled: bool = _field(False, boolean)
+    """The arm's servos. Listing ``joints`` is enough: ``enabled`` (default: on when joints are listed) turns off a
+    section a config shares with variants that have no arm."""
+
+    enabled: bool | None = _field(None, optional(boolean))
     joints: list[str] = _field([], names)
     kp: float | list[float] = _field(1000.0, number_or_numbers(0.0))
     dampratio: float = _field(1.0, number(0.0, 100.0))
@@ -248,6 +251,37 @@ class Arm(Located):
     joint_armature: float = _field(0.0, number(0.0))
     limit_margin: float = _field(0.0, number(0.0, 0.1))
     limit_solref: list[float] | None = _field(None, optional(solref))
+
+    @property
+    def active(self) -> bool:
+        return bool(self.joints) if self.enabled is None else self.enabled
+
+
+SIDES = ("right", "left")
+
+
+@dataclass(frozen=True)
+class Mount(Located):
+    """Where this project's SVH goes on an arm read from any URDF or xacro (the variant's ``xacro``): fixed to the
+    arm's link ``parent`` at ``xyz`` (m) / ``rpy`` (rad, URDF order), the ``side`` hand, its links and joints named
+    ``<prefix>_...`` (default: hand.prefix, else ``<side>_hand``; written, it overrides hand.prefix). ``remove``:
+    arm links dropped with every link below them (the arm's own gripper, which the SVH replaces)."""
+
+    parent: str = _field(None, text, required=True)
+    xyz: list[float] = _field([0.0, 0.0, 0.0], numbers((3,), number(-10.0, 10.0)))
+    rpy: list[float] = _field([0.0, 0.0, 0.0], numbers((3,), number(-10.0, 10.0)))
+    side: str = _field("right", choice(*SIDES))
+    prefix: str | None = _field(None, optional(text))
+    remove: list[str] = _field([], names)
+
+
+def _optional_section(cls: type) -> Any:
+    """A nested section that is None unless the config writes it (its required keys then apply)."""
+
+    def check(value: Any, at: str) -> tuple[Any, Any]:
+        return (None, None) if value is None else _section(cls, value, at)
+
+    return field(default=None, metadata={"check": check, "required": False, "section": True})
 
 
 def _budget(value: Any, at: str) -> Node:
@@ -400,6 +434,7 @@ class Settings(Located):
     packages: dict[str, str] = _field({}, mapping_of(text))
     hand: Hand = _sub(Hand)
     arm: Arm = _sub(Arm)
+    mount: Mount | None = _optional_section(Mount)
     mass: Mass = _sub(Mass)
     contact: Contact = _sub(Contact)
     transmissions: Transmissions = _sub(Transmissions)
@@ -450,9 +485,23 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
 def normalise(settings: dict[str, Any], at: str) -> Settings:
     """Check every value of one variant's merged settings; fill the defaults."""
     typed = _section(Settings, settings, f"{at}: ")[0]
+    if typed.mount is not None:
+        typed = replace(typed, hand=replace(typed.hand, prefix=mounted_prefix(typed.mount, typed.hand)))
     if not typed.hand.prefix:
         _check_no_hand_patterns(typed)
     return typed
+
+
+def mounted_prefix(mount: Mount, hand: Hand) -> str:
+    """The mounted hand's prefix: mount.prefix (it overrides hand.prefix, which a base config may set for its own
+    hands), else hand.prefix, else ``<side>_hand``."""
+    prefix = mount.prefix or hand.prefix or f"{mount.side}_hand"
+    other = SIDES[1 - SIDES.index(mount.side)]
+    if prefix.startswith(other):  # e.g. a base config's right_hand inherited by a left mount
+        raise SvhdescError(
+            f"{mount.at('side')}: mount.side is {mount.side}, but the hand's prefix is {prefix!r}: set mount.prefix"
+        )
+    return prefix
 
 
 def _check_no_hand_patterns(settings: Settings) -> None:

@@ -34,6 +34,8 @@ def parse_package_option(value: str) -> tuple[str, Path]:
 
 
 def find_package(name: str, packages: Mapping[str, Path], where: str) -> Path:
+    if not name:
+        raise SvhdescError(f"{where}: a package reference names no package")
     try:
         return packages[name]
     except KeyError:
@@ -44,9 +46,11 @@ def find_package(name: str, packages: Mapping[str, Path], where: str) -> Path:
 def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:
     """Turn a mesh URI (package://, file://, absolute or relative path) into a file path."""
     if uri.startswith("package://"):
-        name, _, rest = uri[len("package://") :].partition("/")
-        if not name:  # package:///NAME/... (a slash too many, as in example-robot-data's Talos): ROS tools read NAME
-            name, _, rest = rest.lstrip("/").partition("/")
+        # package:///NAME/rest (an empty authority, as Talos' URDF writes it) reads as package://NAME/rest: pinocchio,
+        # for which example-robot-data writes them, joins the path after "package://" to a package folder.
+        name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
+        if not name or not rest:
+            raise SvhdescError(f"{where}: {uri}: a package URI needs package://NAME/PATH")
         return find_package(name, packages, where) / rest
     if uri.startswith("file://"):
         return Path(uri[len("file://") :])

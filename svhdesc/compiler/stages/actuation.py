@@ -22,7 +22,7 @@ INTERFACES = {
 
 
 def arm_joints(robot: Robot, arm: Arm) -> list[str]:
-    if not arm.enabled:
+    if not arm.active:
         return []
     names = {j.name for j in robot.joints}
     missing = [j for j in arm.joints if j not in names]

@@ -49,14 +49,16 @@ def check_unique_names(robot: Robot, section: tuple[Hand, Arm]) -> None:
             seen.add(name)
 
 
-def check_driven(robot: Robot) -> None:
-    """An undriven joint swings free in simulation: refuse it, and actuators that cannot move."""
+def check_driven(robot: Robot, arm: Arm) -> None:
+    """An undriven joint swings free in simulation: refuse it, naming the key that would drive it, and actuators
+    that cannot move."""
     channels = {c.joint for c in robot.channels}
     actuated = {a.joint: a for a in robot.actuators}
     for joint in robot.joints:
         if joint.movable and joint.name not in channels and joint.mimic is None and joint.name not in actuated:
             raise SvhdescError(
-                f"{joint.source}: is neither a channel, a coupled joint nor an actuated arm joint: nothing drives it"
+                f"{joint.source}: is neither a channel, a coupled joint nor an actuated arm joint: nothing drives it "
+                f"({_way_out(joint.name, arm)})"
             )
     for actuator in robot.actuators:
         joint = robot.joint(actuator.joint)
@@ -67,6 +69,12 @@ def check_driven(robot: Robot) -> None:
             )
         if actuator.lower >= actuator.upper:
             raise SvhdescError(f"{joint.source}: an actuated joint needs lower < upper")
+
+
+def _way_out(joint: str, arm: Arm) -> str:
+    if joint in arm.joints and not arm.active:
+        return f"it is in arm.joints, but arm.enabled is false at {arm.at('enabled')}: set it true"
+    return "list it in arm.joints (one servo each, gain arm.kp), or make it a channel or coupled joint in the spec"
 
 
 def check_keyframes(robot: Robot, section: tuple[dict[str, Any], str]) -> None:
