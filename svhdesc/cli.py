@@ -298,7 +298,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, batch; "
+    "self_collision, gravity_hold, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, batch; "
     "or groups: "
     "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
@@ -321,7 +321,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     "--allow-missing-tools",
     is_flag=True,
     help="Let checks that could not run for want of an external tool (check_urdf, ign sdf) pass; "
-    "without it they fail the run.",
+    "without it they fail the run. Optional Python extras beyond 'validate' (batch, batch-mjx) need no flag: "
+    "what needs one that is not installed is skipped with the reason.",
 )
 @config_option
 @_friendly
