@@ -298,8 +298,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, gravity_hold, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, batch; "
-    "or groups: "
+    "self_collision, gravity_hold, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, "
+    "batch; or groups: "
     "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
 @click.option(

@@ -78,11 +78,13 @@ def _drive_force(model: Any, data: Any, tip: int, joint: int, actuator: int) -> 
     return effort / lever if lever > 1e-6 else LOAD_MAX / LOAD_FACTOR
 
 
-def _runaway(model: Any, data: Any, previous: np.ndarray) -> str:
-    """The joint that moved fastest into the bad state, and the body pairs in contact then."""
-    speeds = np.where(np.isfinite(previous), np.abs(previous), np.inf)
-    dof = int(np.argmax(speeds)) if len(speeds) else 0
+def _runaway(model: Any, data: Any) -> str:
+    """The joint that ran away (a non-finite or the largest acceleration), MuJoCo's warnings, the body pairs in
+    contact then."""
+    acc = np.nan_to_num(np.abs(data.qacc), nan=np.inf)
+    dof = int(np.argmax(acc)) if model.nv else 0
     joint = model.joint(int(model.dof_jntid[dof])).name if model.nv else "-"
+    warned = ", ".join(name.removeprefix("mjWARN_") for name in warning_counts(data))
     pairs = sorted(
         {
             f"{model.body(int(model.geom_bodyid[c.geom1])).name}/{model.body(int(model.geom_bodyid[c.geom2])).name}"
@@ -90,7 +92,7 @@ def _runaway(model: Any, data: Any, previous: np.ndarray) -> str:
         }
     )
     touching = f"; in contact: {', '.join(pairs[:6])}" + (" ..." if len(pairs) > 6 else "") if pairs else ""
-    return f"{joint} ran away ({previous[dof]:.3g} per s the step before){touching}"
+    return f"{joint} ran away (acceleration {acc[dof]:.3g})" + (f", MuJoCo warns {warned}" if warned else "") + touching
 
 
 def _loaded_run(
@@ -114,12 +116,11 @@ def _loaded_run(
             directions = rng.normal(size=(len(tips), 3))
             data.xfrc_applied[:] = 0.0
             data.xfrc_applied[tips, :3] = loads[:, None] * directions / np.linalg.norm(directions, axis=1)[:, None]
-        previous = data.qvel.copy()
         mujoco.mj_step(model, data)
         q = data.qpos[adr]
         if not np.isfinite(data.qpos).all() or not np.isfinite(data.qvel).all() or warning_counts(data):
             excess = np.where(np.isfinite(q), np.maximum(lower - q, q - upper), np.inf)
-            return np.maximum(worst, excess), f"diverged at t = {step * dt:.3f} s: {_runaway(model, data, previous)}"
+            return np.maximum(worst, excess), f"diverged at t = {step * dt:.3f} s: {_runaway(model, data)}"
         np.maximum(worst, np.maximum(lower - q, q - upper), out=worst)
     return worst, ""
 
