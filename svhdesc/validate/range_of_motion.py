@@ -4,9 +4,9 @@ Driven joints are the hand's channels (those of the coupling spec that built the
 joint names when no configuration is known) and every other joint an actuator drives (an arm's, a leg's: any
 robot, whatever its config calls them).
 
-From ``home``, each driven joint alone is commanded to its lower end, then its upper end, then back, the others
-held where they are; each end must be reached within TOLERANCE of the range, and each coupled joint must
-reach its polynomial's image of the channel's ends. A joint that stops short names the body pair in contact
+From ``home``, each driven joint alone is commanded to its lower end, then its upper end, then (a channel)
+back, the others held where they are; each end must be reached within TOLERANCE of the range, and each coupled
+joint must reach its polynomial's image of the channel's ends. A joint that stops short names the body pair in contact
 with what it moves (a pair whose bodies both move with it included: two followers of one channel), the
 deepest new contact first: the collision geometry that blocks it. A hand channel so blocked fails (the real
 hand moves freely); an arm joint whose range crosses its own body is listed with the pair and passes, since
@@ -31,7 +31,8 @@ from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
 TOLERANCE = 0.01  # of the channel's range
 MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s) ...
 MIN_SPEED = 2.0  # ... plus the stroke's length at this speed (rad/s, m/s): a wrist turns 4 pi in one stroke
-SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once every joint is this still near its goal
+SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once the channels (an arm joint) are this still near the goal ...
+STALLED = 0.2  # s ... or this long short of it
 
 
 def _subtree(model: Any, body: int) -> set[int]:
@@ -42,14 +43,23 @@ def _subtree(model: Any, body: int) -> set[int]:
     return bodies
 
 
-def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, tol: float) -> None:
+def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, tol: float, dofs: np.ndarray) -> None:
+    """Command ``goal`` and step until ``dofs`` are still: near the goal (reached) or, for STALLED s, short of it
+    (blocked, or a servo that cannot carry the load); at most the stroke's time."""
     import mujoco
 
     duration = MAX_TIME + abs(goal - data.qpos[adr]) / MIN_SPEED
     data.ctrl[actuator] = goal
+    stalled_since = None
     for step in range(int(round(duration / model.opt.timestep))):
         mujoco.mj_step(model, data)
-        if step % 20 == 0 and abs(data.qpos[adr] - goal) < tol / 4 and np.all(np.abs(data.qvel) < SETTLED_SPEED):
+        if step % 20:
+            continue
+        still = bool(np.all(np.abs(data.qvel[dofs]) < SETTLED_SPEED))
+        if still and abs(data.qpos[adr] - goal) < tol / 4:
+            return
+        stalled_since = (stalled_since if stalled_since is not None else data.time) if still else None
+        if stalled_since is not None and data.time - stalled_since >= STALLED:
             return
 
 
@@ -95,6 +105,7 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         model,
         mujoco.MjData(model),
         mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home"),
+        np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int),
         couplings(model),
         {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)},
         hand.short,
@@ -138,6 +149,7 @@ class _Strokes:
     model: Any
     data: Any
     home: int  # keyframe id, < 0 where there is none
+    hand_dofs: np.ndarray  # the channels' dofs: a channel's stroke ends once they are still
     equalities: list[Any]  # svhdesc.model.Coupling
     actuator_of: dict[str, int]  # joint -> actuator
     short: Any  # name -> how it is shown
@@ -155,6 +167,7 @@ class _Strokes:
         mujoco.mj_forward(model, data)
         joint = model.joint(name).id
         adr, actuator = int(model.jnt_qposadr[joint]), self.actuator_of[name]
+        dofs = np.array([model.jnt_dofadr[joint]], dtype=int)
         tol = TOLERANCE * (high - low)
         followers = [e for e in self.equalities if e.leader == name]
         moving = set().union(
@@ -164,8 +177,12 @@ class _Strokes:
         before = set(_touching(model, data, moving))
         reached: dict[str, float] = {}
         entry: dict[str, Any] = {"range": [low, high], "followers": {}}
-        for label, goal in (("start", low), ("upper", high), ("lower", low)):
-            _stroke(model, data, actuator, goal, adr, tol)
+        # A channel goes back down too (the SVH's strokes showed hysteresis); an arm joint's two ends suffice.
+        strokes = (
+            (("start", low), ("upper", high), ("lower", low)) if notes is None else (("start", low), ("upper", high))
+        )
+        for label, goal in strokes:
+            _stroke(model, data, actuator, goal, adr, tol, self.hand_dofs if notes is None else dofs)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
                 blockers = _blocking(model, data, moving, before)
@@ -186,6 +203,7 @@ class _Strokes:
                 entry["followers"].setdefault(e.joint, {})[label] = got
                 if abs(got - expected) > TOLERANCE * span and abs(q - goal) <= tol:
                     problems.append(f"{e.joint} reaches {got:.3f}, not {expected:.3f}, at {name} {label}")
-        entry["reached"] = [reached["lower"], reached["upper"]]
-        entry["fraction"] = (reached["upper"] - reached["lower"]) / (high - low) if high > low else 1.0
+        lowest = reached.get("lower", reached["start"])
+        entry["reached"] = [lowest, reached["upper"]]
+        entry["fraction"] = (reached["upper"] - lowest) / (high - low) if high > low else 1.0
         return entry
