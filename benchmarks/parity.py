@@ -62,7 +62,13 @@ STEP_TIMEOUT = 900  # s per svhdesc command
 DROP = 2.0  # s the importer's model is left to fall
 
 
+def portable(text: str) -> str:
+    """Paths under site-packages written without the machine's prefix: the table reads the same anywhere."""
+    return text.replace(str(SITE) + os.sep, "").replace(str(REPO) + os.sep, "")
+
+
 def first_line(text: str) -> str:
+    text = portable(text)
     lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
     errors = [line for line in lines if line.startswith("error:")]
     return (errors or lines or ["(no output)"])[-1][:160]
@@ -136,7 +142,7 @@ def mujoco_side(urdf: Path, folder: Path) -> dict[str, Any]:
     try:
         model = mujoco.MjModel.from_xml_path(str(importer_urdf(urdf, folder)))
     except (ValueError, OSError) as exc:
-        return {"opens": False, "error": " ".join(str(exc).strip().splitlines()[:2])[:160]}
+        return {"opens": False, "error": portable(" ".join(str(exc).strip().splitlines()[:2]))[:160]}
     return {
         "opens": True,
         "nq": int(model.nq),
@@ -193,6 +199,9 @@ def measure(name: str, urdf: Path, validate: bool) -> Row:
     with tempfile.TemporaryDirectory(prefix=f"parity-{name}-") as tmp:
         row.mujoco = mujoco_side(urdf, Path(tmp))
         row.svhdesc = svhdesc_side(urdf, Path(tmp), validate)
+        for side in (row.mujoco, row.svhdesc):  # the temporary folder's name is random
+            if "error" in side:
+                side["error"] = side["error"].replace(tmp, "<tmp>")
     row.seconds = time.perf_counter() - started
     return row
 
