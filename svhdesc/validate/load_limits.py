@@ -34,6 +34,7 @@ LOAD_MAX = 50.0  # ... at most, N (the SVH's former fixed load)
 LOAD_PERIOD = 0.1  # s between new random directions
 BOUND = 0.01  # rad beyond a hinge's limit
 BOUND_SLIDE = 0.001  # m beyond a slide's limit
+RUNAWAY = 50.0  # x the bound beyond a limit: the joint has gone through it, the run is stopped there
 
 
 def tip_loads(model: Any, tips: list[int], hand_joints: set[str]) -> list[float]:
@@ -78,21 +79,21 @@ def _drive_force(model: Any, data: Any, tip: int, joint: int, actuator: int) -> 
     return effort / lever if lever > 1e-6 else LOAD_MAX / LOAD_FACTOR
 
 
-def _runaway(model: Any, data: Any) -> str:
-    """The joint that ran away (a non-finite or the largest acceleration), MuJoCo's warnings, the body pairs in
-    contact then."""
-    acc = np.nan_to_num(np.abs(data.qacc), nan=np.inf)
-    dof = int(np.argmax(acc)) if model.nv else 0
-    joint = model.joint(int(model.dof_jntid[dof])).name if model.nv else "-"
+def _runaway(model: Any, data: Any, joint: str | None, speeds: np.ndarray, pairs: np.ndarray) -> str:
+    """What ran away: ``joint`` (one through its limit), else the fastest joint of the last sound step (MuJoCo resets
+    the state when it warns); its speed, MuJoCo's warnings and the body pairs in contact in that step."""
+    dof = int(np.argmax(np.nan_to_num(np.abs(speeds), nan=np.inf))) if model.nv else 0
+    if joint is None:
+        joint = model.joint(int(model.dof_jntid[dof])).name if model.nv else "-"
+    else:
+        dof = int(model.jnt_dofadr[model.joint(joint).id])
     warned = ", ".join(name.removeprefix("mjWARN_") for name in warning_counts(data))
-    pairs = sorted(
-        {
-            f"{model.body(int(model.geom_bodyid[c.geom1])).name}/{model.body(int(model.geom_bodyid[c.geom2])).name}"
-            for c in data.contact[: data.ncon]
-        }
+    names = sorted(
+        {f"{model.body(int(model.geom_bodyid[a])).name}/{model.body(int(model.geom_bodyid[b])).name}" for a, b in pairs}
     )
-    touching = f"; in contact: {', '.join(pairs[:6])}" + (" ..." if len(pairs) > 6 else "") if pairs else ""
-    return f"{joint} ran away (acceleration {acc[dof]:.3g})" + (f", MuJoCo warns {warned}" if warned else "") + touching
+    touching = f"; in contact: {', '.join(names[:6])}" + (" ..." if len(names) > 6 else "") if names else ""
+    text = f"{joint} ran away ({abs(speeds[dof]):.3g} rad/s)" if model.nv else f"{joint} ran away"
+    return text + (f", MuJoCo warns {warned}" if warned else "") + touching
 
 
 def _loaded_run(
@@ -109,6 +110,8 @@ def _loaded_run(
     target_every = max(1, int(round(TARGET_PERIOD / dt)))
     load_every = max(1, int(round(LOAD_PERIOD / dt)))
     worst = np.zeros(len(limited))
+    allowed = np.where(model.jnt_type[limited] == int(mujoco.mjtJoint.mjJNT_SLIDE), BOUND_SLIDE, BOUND)
+    speeds, pairs = data.qvel.copy(), np.zeros((0, 2), dtype=int)
     for step in range(int(round(DURATION / dt))):
         if step % target_every == 0:
             data.ctrl[:] = rng.uniform(low, high)
@@ -118,10 +121,15 @@ def _loaded_run(
             data.xfrc_applied[tips, :3] = loads[:, None] * directions / np.linalg.norm(directions, axis=1)[:, None]
         mujoco.mj_step(model, data)
         q = data.qpos[adr]
-        if not np.isfinite(data.qpos).all() or not np.isfinite(data.qvel).all() or warning_counts(data):
-            excess = np.where(np.isfinite(q), np.maximum(lower - q, q - upper), np.inf)
-            return np.maximum(worst, excess), f"diverged at t = {step * dt:.3f} s: {_runaway(model, data)}"
-        np.maximum(worst, np.maximum(lower - q, q - upper), out=worst)
+        excess = np.where(np.isfinite(q), np.maximum(lower - q, q - upper), np.inf)
+        np.maximum(worst, excess, out=worst)
+        through = np.flatnonzero(excess > RUNAWAY * allowed)
+        if warning_counts(data) or not np.isfinite(data.qvel).all() or len(through):
+            culprit = model.joint(limited[int(through[0])]).name if len(through) else None
+            if culprit is not None:
+                speeds, pairs = data.qvel.copy(), np.array(data.contact.geom[: data.ncon]).reshape(-1, 2)
+            return worst, f"diverged at t = {step * dt:.3f} s: {_runaway(model, data, culprit, speeds, pairs)}"
+        speeds, pairs = data.qvel.copy(), np.array(data.contact.geom[: data.ncon]).reshape(-1, 2)
     return worst, ""
 
 
