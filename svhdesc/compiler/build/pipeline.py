@@ -22,11 +22,11 @@ from lxml import etree
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.settings.config import Config, Variant
-from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.compiler.settings.coupling import load_spec, spec_from_mimics
 from svhdesc.compiler.settings.schema import Settings
 from svhdesc.compiler.settings.yamlio import where
 from svhdesc.compiler.source.packages import resolve_uri
-from svhdesc.compiler.source.urdf import read_urdf
+from svhdesc.compiler.source.urdf import SourceMimic, read_mimics, read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.assets import Assets
@@ -115,6 +115,7 @@ class Compiled:
 class Source:
     robot: Robot  # as read
     inputs: list[Path]
+    mimics: list[SourceMimic]  # the source's <mimic> tags: the coupling spec when the config gives none
 
 
 def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
@@ -122,7 +123,8 @@ def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -
         tree, inputs = expand_xacro(variant.xacro, variant.args, packages)
     with timings.stage("read"):
         robot = replace(read_urdf(tree, packages, variant.xacro, inputs), name=variant.name)
-    return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)])
+    mimics = read_mimics(tree, variant.xacro, inputs)
+    return Source(robot, [*inputs, *_mesh_sources(tree, packages, variant.xacro)], mimics)
 
 
 def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
@@ -132,8 +134,11 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     settings = variant.settings
     spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
-        spec = load_spec(spec_path) if spec_path is not None else None
-    coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen")
+        if spec_path is not None:
+            spec, prefix = load_spec(spec_path), settings.hand.prefix
+        else:  # the source's own <mimic> tags, with the source's full joint names
+            spec, prefix = spec_from_mimics(source.robot, source.mimics, variant.xacro), None
+    coupled = Coupled(spec, prefix, settings.coupled_limits == "widen")
     rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
     inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))

@@ -284,9 +284,11 @@ def _inertials(value: Any, at: str) -> str | Node:
 class Mass(Located):
     budgets: list[Any] = _field([], _budgets)
     links: dict[str, float] = _field({}, mapping_of(number(0.0, 1e4, strict=True)))
-    # {link: {mass, com, inertia}} wins over everything. `recompute` replaces third-party inertials with the
-    # cylinder fitted to the link's geometry, at the link's mass: for all links whose source inertial is invalid
-    # (`inertials: recompute`), or for one link whatever its source says (`inertials: {link: recompute}`).
+    # {link: {mass, com, inertia}} wins over everything (inertia in the order ixx, ixy, ixz, iyy, iyz, izz, in
+    # the link frame; com in the link frame). A source inertial that is invalid is always replaced, with a
+    # warning: by the cylinder fitted to the link's geometry at the link's mass, or, for a link without geometry,
+    # by a sphere (docs/any-robot.md). `recompute` replaces one link's inertial whatever its source says
+    # (`inertials: {link: recompute}`); `inertials: recompute` is kept for older configs (the default now).
     inertials: dict[str, Any] | str = _field({}, _inertials)
 
     @property
