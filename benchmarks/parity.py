@@ -274,8 +274,8 @@ def main() -> None:
         row = measure(name, ROBOTS[name], not args.no_validate)
         print(f"{name}: importer {row.mujoco} svhdesc {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
         rows.append(row)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(render(rows, not args.no_validate))
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(render(rows, not args.no_validate))  # after each robot: a long run leaves what it did
     print(f"wrote {args.out}")
 
 
