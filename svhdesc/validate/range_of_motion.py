@@ -189,7 +189,11 @@ class _Strokes:
                 if blockers:
                     entry.setdefault("blocked_by", {})[label] = blockers
                 text = f"{self.short(name)} stops at {q:.3f} of {goal:.4g} going {label}"
-                if not blockers:
+                if not low - tol <= q <= high + tol:  # past the end: the limit gave way to the servo
+                    problems.append(
+                        f"{self.short(name)} goes through its limit to {q:.3f} (range {low:.4g} .. {high:.4g})"
+                    )
+                elif not blockers:
                     problems.append(text + ", nothing in contact: its servo cannot carry the load (or is too slow)")
                 elif notes is not None:
                     entry["own_robot"] = True
