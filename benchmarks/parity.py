@@ -184,6 +184,9 @@ def svhdesc_side(urdf: Path, folder: Path, validate: bool) -> dict[str, Any]:
         result = cli("validate", "--config", str(config), "--out", str(out), "--json", str(report))
         checks = json.loads(report.read_text())["variants"][0]["checks"] if report.is_file() else []
         failed = [c["name"] for c in checks if c["status"] not in ("pass", "skipped")]
+        side["failures"] = {
+            c["name"]: portable(c["detail"])[:240] for c in checks if c["status"] not in ("pass", "skipped")
+        }
         side["validate"] = (
             "pass" if result.returncode == 0 else f"fail: {', '.join(failed) or first_line(result.stderr)}"
         )
@@ -247,6 +250,10 @@ def render(rows: list[Row], validate: bool) -> str:
             "-" if hold is None else f"{hold:.3g} mrad",
         ]
         lines.append("| " + " | ".join(c.replace("|", "/") for c in cells) + " |")
+    failures = [(r.robot, name, text) for r in rows for name, text in r.svhdesc.get("failures", {}).items()]
+    if failures:
+        lines += ["", "What failed (validate's detail, shortened):", ""]
+        lines += [f"- {robot} `{name}`: {text}" for robot, name, text in failures]
     lines += ["", "Sources (under site-packages):", ""]
     lines += [f"- {r.robot}: `{r.source}` ({r.seconds:.0f} s)" for r in rows]
     opened = sum(1 for r in rows if r.mujoco.get("opens"))
