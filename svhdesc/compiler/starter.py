@@ -16,8 +16,8 @@ from pathlib import Path
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.settings.coupling import spec_from_mimics
 from svhdesc.compiler.settings.config import PYTHON
+from svhdesc.compiler.settings.coupling import spec_from_mimics
 from svhdesc.compiler.source.packages import package_name_of
 from svhdesc.compiler.source.urdf import read_mimics, read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
@@ -75,7 +75,8 @@ def _packages(tree: etree._Element, source: Path, given: dict[str, Path]) -> dic
         found = find_beside(name, source) if name else None
         if found is None:
             raise SvhdescError(
-                f"{source}: its meshes name package '{name}', found neither above it nor given (add --package {name}=DIR)"
+                f"{source}: its meshes name package '{name}', found neither above the source nor given "
+                f"(add --package {name}=DIR)"
             )
         packages[name] = found
     return packages
@@ -151,7 +152,9 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     used = {name: packages[name] for name in _mesh_packages_of(robot, packages)}
     if used:
         written = {name: _written_path(path, config_dir) for name, path in sorted(used.items())}
-        lines += _block("the packages its meshes name (package://NAME/...), found beside the source", {"packages": written})
+        lines += _block(
+            "the packages its meshes name (package://NAME/...), found beside the source", {"packages": written}
+        )
     coupling_name = None
     if spec is not None:
         coupling_name = f"{out.stem}.coupling.yaml"
@@ -185,8 +188,12 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
         {"collision": {"mode": "hull"}},
     )
     home = {j.name: _home(j) for j in movable if j.name not in coupled}
-    lines += _block("a pose inside every joint's limits (0, or the middle of a range without 0)", {"keyframes": {"home": home}})
-    lines += _block("one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}})
+    lines += _block(
+        "a pose inside every joint's limits (0, or the middle of a range without 0)", {"keyframes": {"home": home}}
+    )
+    lines += _block(
+        "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}
+    )
     coupling = None
     if spec is not None:
         coupling = _coupling_text(spec, source)
@@ -209,7 +216,9 @@ def _masses(robot: Robot) -> list[str]:
     )
     if not guessed:
         return [*(f"# {line}" for line in comment.splitlines()), "# mass: {links: {LINK: KG}}", ""]
-    comment += f";\nthese links have geometry but no inertial in the source: {GUESSED_MASS} kg each is a GUESS, weigh them"
+    comment += (
+        f";\nthese links have geometry but no inertial in the source: {GUESSED_MASS} kg each is a GUESS, weigh them"
+    )
     return _block(comment, {"mass": {"links": {name: GUESSED_MASS for name in guessed}}})
 
 

@@ -85,7 +85,15 @@ PROCESSORS: tuple[Processor, ...] = (
     Processor("inertials", add_inertials, lambda plan: (plan.settings.mass, plan.settings.hand)),
     Processor("physics", add_contact, lambda plan: (plan.settings.contact, plan.settings.hand)),
     Processor(
-        "physics", add_actuation, lambda plan: (plan.settings.hand, plan.settings.arm, plan.settings.transmissions)
+        "physics",
+        add_actuation,
+        lambda plan: (
+            plan.settings.hand,
+            plan.settings.arm,
+            plan.settings.transmissions,
+            plan.settings.joints,
+            plan.settings.simulation.friction_cap,
+        ),
     ),
     Processor("physics", add_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.hand, plan.settings.arm)),
     Processor("physics", add_force_sensor, lambda plan: plan.settings.hand),
@@ -101,7 +109,7 @@ CHECKS: tuple[Check, ...] = (
 )
 
 # These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
-SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: None),)
+SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: plan.settings.collision),)
 
 
 @dataclass

@@ -330,6 +330,14 @@ class Simulation(Located):
     coupling_solref: list[float] = _field([0.002, 1.0], solref)
     coupling_solimp: list[float] = _field([0.99, 0.999, 0.0001, 0.5, 2.0], solimp)
     gravity_compensation: bool = _field(True, boolean)
+    # MuJoCo's friction cone: elliptic (the default, what Warp and MJX implement best) or pyramidal (which
+    # kept the Allegro hand's crowded fingertips stable where the elliptic cone diverged)
+    cone: str = _field("elliptic", choice("elliptic", "pyramidal"))
+    # The source's <dynamics friction> becomes MuJoCo's frictionloss, capped at this fraction of the joint's
+    # effort (with a warning): a position servo of kp = effort / 0.1 rad stalls friction / kp off its target,
+    # and a source friction of 2/3 of the effort (the Allegro's) left the joints at 28 % of their range.
+    # joints.NAME.friction sets one joint's friction whatever this says.
+    friction_cap: float = _field(0.1, number(0.0, 1.0))
 
 
 @dataclass(frozen=True)
@@ -387,6 +395,18 @@ def _grasp(value: Any, at: str) -> Node:
 
 
 @dataclass(frozen=True)
+class JointDynamics(Located):
+    """One joint's dynamics, over the source's <dynamics> and the hand/arm sections' defaults."""
+
+    damping: float | None = _field(None, optional(number(0.0)))  # N m s/rad (N s/m for a sliding joint)
+    friction: float | None = _field(None, optional(number(0.0)))  # N m (N): MuJoCo's frictionloss
+
+
+def _joint_dynamics(value: Any, at: str) -> JointDynamics:
+    return _section(JointDynamics, value, at)[0]
+
+
+@dataclass(frozen=True)
 class Settings(Located):
     coupling: str | None = _field(None, optional(text))  # the coupling spec; none for a robot without couplings
     coupled_limits: str = _field("error", choice("error", "widen"))
@@ -401,6 +421,7 @@ class Settings(Located):
     keyframes: dict[str, Any] = _field({}, mapping_of(_keyframe))
     grasps: dict[str, Any] = _field({}, mapping_of(_grasp))
     collision: dict[str, Any] = field(default=None, metadata={"check": free, "required": False, "section": True})
+    joints: dict[str, Any] = _field({}, mapping_of(_joint_dynamics))  # {joint: {damping, friction}}
 
 
 def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
