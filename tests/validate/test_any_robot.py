@@ -3,10 +3,10 @@ tests/data/arm3 (no build, no configuration), each check failing on a seeded fau
 
 Seeded faults (each an lxml edit of a copy): a post moved into the arm's way (range_of_motion names the pair); a
 coupling that makes two bodies moved by one joint meet (the pair is named although both move); a weak elbow servo
-(gravity_hold and range_of_motion fail); a keyframe folding the arm into itself (self_collision fails); MuJoCo
-Warp and MJX not importable (batch skipped with the reason, exit 0); MJX's put_model refusing a
-cylinder-mesh pair (that half skipped); gravity 1e12 (load_limits names the joint that
-ran away).
+(gravity_hold and range_of_motion fail); a soft wrist limit (range_of_motion: through its limit); a keyframe
+folding the arm into itself (self_collision fails); MuJoCo Warp and MJX not importable (batch skipped with the
+reason, exit 0); MJX's put_model refusing a cylinder-mesh pair (that half skipped); gravity 1e12 (load_limits
+names the joint that ran away).
 """
 
 from __future__ import annotations
@@ -100,6 +100,18 @@ def test_weak_arm_servo_fails_gravity_hold_and_range_of_motion(tmp_path: Path) -
     assert hold.status == "fail" and "home: elbow leaves it by" in hold.detail, hold.detail
     motion = only(check_range_of_motion(pair, OPTIONS))
     assert motion.status == "fail" and "elbow stops at" in motion.detail and "nothing in contact" in motion.detail
+
+
+def soft_wrist_limit(tree: etree._ElementTree) -> None:
+    """A soft limit (solref 0.5 s), no damping and a stiff servo: the wrist swings through its stop."""
+    tree.find(".//joint[@name='wrist']").attrib.update({"solreflimit": "0.5 1", "damping": "0"})
+    tree.find(".//position[@name='wrist']").set("kp", "20000")
+
+
+def test_joint_through_its_limit_is_named_as_such(tmp_path: Path) -> None:
+    check = only(check_range_of_motion(arm(tmp_path, soft_wrist_limit), OPTIONS))
+    assert check.status == "fail" and "wrist goes through its limit to -3." in check.detail, check.detail
+    assert "wrist stops at" not in check.detail  # not mistaken for a weak servo
 
 
 def folded_keyframe(tree: etree._ElementTree) -> None:
