@@ -210,6 +210,32 @@ def build_command(
         _say(f"built {out / name}")
 
 
+@main.command("init")
+@click.argument("source", type=click.Path(path_type=Path))
+@click.option(
+    "--out", "out", type=click.Path(path_type=Path), default=None, help="Config to write (default: ROBOT.yaml here)."
+)
+@package_option
+@_friendly
+def init_command(source: Path, out: Path | None, packages: tuple[str, ...]) -> None:
+    """Write a commented starter config for the URDF or xacro SOURCE (and, from its <mimic> tags, a coupling spec)."""
+    from svhdesc.compiler.source.packages import parse_package_option
+    from svhdesc.compiler.starter import starter
+
+    explicit = dict(parse_package_option(p) for p in packages)
+    target = out or Path(f"{source.stem.removesuffix('.urdf')}.yaml")
+    result = starter(source, target, explicit)
+    written = [(target, result.config)]
+    if result.coupling is not None:
+        written.append((target.with_name(f"{target.stem}.coupling.yaml"), result.coupling))
+    for path, text in written:  # each swapped in whole: no partial file on a failure
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f".{path.name}.partial")
+        partial.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+        partial.replace(path)
+        _say(f"wrote {path}")
+
+
 @main.command("list")
 @config_option
 @_friendly
@@ -307,8 +333,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, batch; "
-    "or groups: "
+    "self_collision, gravity_hold, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, "
+    "batch; or groups: "
     "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
 @click.option(
@@ -330,7 +356,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     "--allow-missing-tools",
     is_flag=True,
     help="Let checks that could not run for want of an external tool (check_urdf, ign sdf) pass; "
-    "without it they fail the run.",
+    "without it they fail the run. Optional Python extras beyond 'validate' (batch, batch-mjx) need no flag: "
+    "what needs one that is not installed is skipped with the reason.",
 )
 @config_option
 @_friendly

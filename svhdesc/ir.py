@@ -162,6 +162,7 @@ class Physics:
     coupling_solref: tuple[float, ...] = (0.002, 1.0)
     coupling_solimp: tuple[float, ...] = (0.99, 0.999, 0.0001, 0.5, 2.0)
     gravity_compensation: bool = True
+    cone: str = "elliptic"
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,7 @@
-"""Check 7: no two robot bodies touch at any keyframe (bare model: no floor to ignore).
+"""Check 7: no two robot bodies penetrate at any keyframe (bare model: no floor to ignore), any robot.
+
+Pairs the model excludes (``<contact><exclude>``, parent and child) never make a contact; every other pair
+deeper than 0 (MuJoCo's contact distance < 0) is named with its depth.
 
 Keyframes that close a configured grasp are left out: they command the fingers past where the object
 stops them, so without it they overlap by design (the grasps check simulates them).
@@ -14,7 +17,7 @@ from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
 def check_self_collision(pair: ModelPair, options: Options) -> list[Check]:
     import mujoco
 
-    bound = "0 contacts between robot bodies"
+    bound = "0 penetrating pairs of robot bodies (excluded pairs aside)"
     if pair.model is None:
         return [not_run("self_collision", "the MJCF does not compile", bound)]
     model = pair.model
@@ -34,6 +37,8 @@ def check_self_collision(pair: ModelPair, options: Options) -> list[Check]:
             body1, body2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
             if body1 == 0 or body2 == 0:
                 continue  # something fixed to the world (a floor in a scene), not the robot
+            if contact.dist >= 0:
+                continue  # within a margin, not penetrating
             names = (model.body(body1).name, model.body(body2).name)
             pairs[names] = min(pairs.get(names, 0.0), float(contact.dist))
         if pairs:

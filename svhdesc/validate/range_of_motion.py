@@ -1,12 +1,17 @@
-"""Every hand channel reaches both ends of its range with contacts and gravity on, as on the real hand.
+"""Every driven joint reaches both ends of its range with contacts and gravity on, as on the real robot.
 
-The channels are those of the coupling spec that built the model (any robot's hand or gripper; an SVH recognised
-by its joint names when no configuration is known).
+Driven joints are the hand's channels (those of the coupling spec that built the model; an SVH recognised by its
+joint names when no configuration is known) and every other joint an actuator drives (an arm's, a leg's: any
+robot, whatever its config calls them).
 
-From ``home``, each channel alone is commanded to its lower end, then its upper end, then back, the others
-held where they are; each end must be reached within TOLERANCE of the range, and each coupled joint must
-reach its polynomial's image of the channel's ends. A channel that stops short names the body pair in
-contact with the moving finger: the collision geometry that blocks it.
+From ``home``, each driven joint alone is commanded to its lower end, then its upper end, then (a channel)
+back, the others held where they are; each end must be reached within TOLERANCE of the range, and each coupled
+joint must reach its polynomial's image of the channel's ends. A joint that stops short names the body pair in contact
+with what it moves (a pair whose bodies both move with it included: two followers of one channel), the
+deepest new contact first: the collision geometry that blocks it. A hand channel so blocked fails (the real
+hand moves freely); an arm joint whose range crosses its own body is listed with the pair and passes, since
+no arm reaches every end from every pose. A joint that stops short with nothing in contact fails either way:
+its servo cannot carry the load.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.model import couplings
+from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.handsim import hand_parts
 from svhdesc.validate.options import Options
@@ -24,8 +29,10 @@ from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
-MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s)
-SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once every hand joint is this still near its goal
+MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s) ...
+MIN_SPEED = 2.0  # ... plus the stroke's length at this speed (rad/s, m/s): a wrist turns 4 pi in one stroke
+SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once the channels (an arm joint) are this still near the goal ...
+STALLED = 0.2  # s ... or this long short of it
 
 
 def _subtree(model: Any, body: int) -> set[int]:
@@ -36,25 +43,51 @@ def _subtree(model: Any, body: int) -> set[int]:
     return bodies
 
 
-def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, dofs: np.ndarray, tol: float) -> None:
+def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, tol: float, dofs: np.ndarray) -> None:
+    """Command ``goal`` and step until ``dofs`` are still: near the goal (reached) or, for STALLED s, short of it
+    (blocked, or a servo that cannot carry the load); at most the stroke's time."""
     import mujoco
 
+    duration = MAX_TIME + abs(goal - data.qpos[adr]) / MIN_SPEED
     data.ctrl[actuator] = goal
-    for step in range(int(round(MAX_TIME / model.opt.timestep))):
+    stalled_since = None
+    for step in range(int(round(duration / model.opt.timestep))):
         mujoco.mj_step(model, data)
-        if step % 20 == 0 and abs(data.qpos[adr] - goal) < tol / 4 and np.all(np.abs(data.qvel[dofs]) < SETTLED_SPEED):
+        if step % 20:
+            continue
+        still = bool(np.all(np.abs(data.qvel[dofs]) < SETTLED_SPEED))
+        if still and abs(data.qpos[adr] - goal) < tol / 4:
+            return
+        stalled_since = (stalled_since if stalled_since is not None else data.time) if still else None
+        if stalled_since is not None and data.time - stalled_since >= STALLED:
             return
 
 
-def _blocking(model: Any, data: Any, moving: set[int]) -> list[str]:
-    """Body pairs in contact with one body moving with the channel (deepest first)."""
+def _touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], float]:
+    """Body pairs in contact with at least one body among ``moving`` -> their deepest contact distance."""
     pairs: dict[tuple[str, str], float] = {}
     for contact in data.contact[: data.ncon]:
         b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
-        if (b1 in moving) != (b2 in moving):
+        if b1 in moving or b2 in moving:
             key = (model.body(b1).name, model.body(b2).name)
             pairs[key] = min(pairs.get(key, 0.0), float(contact.dist))
-    return [f"{a}/{b}" for (a, b), _ in sorted(pairs.items(), key=lambda kv: kv[1])]
+    return pairs
+
+
+def _blocking(model: Any, data: Any, moving: set[int], before: set[tuple[str, str]]) -> list[str]:
+    """Body pairs in contact with a body moving with the joint, both bodies moving included: those that were
+    not touching when the stroke began first, deepest first."""
+    pairs = _touching(model, data, moving)
+    order = sorted(pairs.items(), key=lambda kv: (kv[0] in before, kv[1]))
+    return [f"{a}/{b}" for (a, b), _ in order]
+
+
+def driven_joints(pair: ModelPair) -> tuple[dict[str, tuple[float, float]], dict[str, tuple[float, float]]]:
+    """(the hand's channels, every other joint an actuator drives) -> commanded range, each with a range to cover
+    (a continuous joint without one is left out)."""
+    channels = hand_parts(pair).channels
+    others = {n: r for n, r in actuated_joints(pair.model).items() if n not in channels and r[0] < r[1]}
+    return channels, others
 
 
 def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
@@ -65,9 +98,9 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         return [not_run("range_of_motion", "the MJCF does not compile", bound)]
     model = pair.model
     hand = hand_parts(pair)
-    if not hand.channels:
-        return [skipped("range_of_motion", "no hand channels", bound)]
-    channels, prefix = hand.channels, hand.prefix
+    channels, others = driven_joints(pair)
+    if not channels and not others:
+        return [skipped("range_of_motion", "no driven joint with a range", bound)]
     strokes = _Strokes(
         model,
         mujoco.MjData(model),
@@ -75,49 +108,55 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
         np.array([model.jnt_dofadr[model.joint(n).id] for n in channels], dtype=int),
         couplings(model),
         {model.joint(int(model.actuator_trnid[a, 0])).name: a for a in range(model.nu)},
-        prefix,
+        hand.short,
     )
     problems: list[str] = []
-    results = {name: strokes.channel(name, low, high, problems) for name, (low, high) in channels.items()}
-    worst = min(results, key=lambda n: results[n]["fraction"]) if results else None
+    notes: list[str] = []
+    by_channel = {name: strokes.joint(name, low, high, problems, None) for name, (low, high) in channels.items()}
+    driven = {name: strokes.joint(name, low, high, problems, notes) for name, (low, high) in others.items()}
+    results = by_channel | driven
+    # An arm joint stopped by its own robot is listed in the notes, not ranked.
+    ranked = [n for n in results if not results[n].get("own_robot")] or list(results)
+    worst = min(ranked, key=lambda n: results[n]["fraction"])
     rows = [
         [
             hand.short(n),
+            "channel" if n in channels else "driven",
             f"{r['range'][0]:.4f} .. {r['range'][1]:.4f}",
             f"{r['reached'][0]:.4f} .. {r['reached'][1]:.4f}",
             f"{100 * r['fraction']:.1f} %",
         ]
         for n, r in results.items()
     ]
+    summary = f"{len(channels)} channels, {len(others)} other driven joints, contacts and gravity on, from 'home'"
     return [
         Check(
             "range_of_motion",
             verdict(not problems),
-            f"worst {fmt(100 * results[worst]['fraction'])} % ({hand.short(worst)})" if worst else "-",
+            f"worst {fmt(100 * results[worst]['fraction'])} % ({hand.short(worst)})",
             bound,
-            "; ".join(problems) or f"{len(results)} channels, contacts and gravity on, from 'home'",
-            {"channels": results, "tolerance": TOLERANCE},
-            table=table(rows, ["channel", "range (rad)", "reached (rad)", "reached"]),
+            "; ".join(problems + notes) or summary,
+            {"channels": by_channel, "driven": driven, "tolerance": TOLERANCE, "notes": notes},
+            table=table(rows, ["joint", "kind", "range", "reached", "reached"]),
         )
     ]
 
 
 @dataclass
 class _Strokes:
-    """The hand's channels driven one at a time from ``home`` (the model's reset state without one); names are
-    shown without ``prefix``."""
+    """Driven joints moved one at a time from ``home`` (the model's reset state without one)."""
 
     model: Any
     data: Any
     home: int  # keyframe id, < 0 where there is none
-    hand_dofs: np.ndarray  # the channels' dofs: a stroke ends once they are still
+    hand_dofs: np.ndarray  # the channels' dofs: a channel's stroke ends once they are still
     equalities: list[Any]  # svhdesc.model.Coupling
     actuator_of: dict[str, int]  # joint -> actuator
-    prefix: str
+    short: Any  # name -> how it is shown
 
-    def channel(self, name: str, low: float, high: float, problems: list[str]) -> dict[str, Any]:
-        """Lower end, upper end, lower end again: what the channel and its followers reached (and what blocked
-        it); each end missed is appended to `problems`."""
+    def joint(self, name: str, low: float, high: float, problems: list[str], notes: list[str] | None) -> dict[str, Any]:
+        """Lower end, upper end, lower end again: what the joint and its followers reached (and what blocked
+        it); each end missed is appended to `problems`, or to `notes` (where given) when a contact blocks it."""
         import mujoco
 
         model, data = self.model, self.data
@@ -125,27 +164,42 @@ class _Strokes:
             mujoco.mj_resetDataKeyframe(model, data, self.home)
         else:
             mujoco.mj_resetData(model, data)
+        mujoco.mj_forward(model, data)
         joint = model.joint(name).id
-        shown = name.removeprefix(f"{self.prefix}_") if self.prefix else name
         adr, actuator = int(model.jnt_qposadr[joint]), self.actuator_of[name]
+        dofs = np.array([model.jnt_dofadr[joint]], dtype=int)
         tol = TOLERANCE * (high - low)
         followers = [e for e in self.equalities if e.leader == name]
         moving = set().union(
             _subtree(model, int(model.jnt_bodyid[joint])),
             *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),
         )
+        before = set(_touching(model, data, moving))
         reached: dict[str, float] = {}
         entry: dict[str, Any] = {"range": [low, high], "followers": {}}
-        for label, goal in (("start", low), ("upper", high), ("lower", low)):
-            _stroke(model, data, actuator, goal, adr, self.hand_dofs, tol)
+        # A channel goes back down too (the SVH's strokes showed hysteresis); an arm joint's two ends suffice.
+        strokes = (
+            (("start", low), ("upper", high), ("lower", low)) if notes is None else (("start", low), ("upper", high))
+        )
+        for label, goal in strokes:
+            _stroke(model, data, actuator, goal, adr, tol, self.hand_dofs if notes is None else dofs)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                blockers = _blocking(model, data, moving)
-                entry.setdefault("blocked_by", {})[label] = blockers
-                problems.append(
-                    f"{shown} stops at {q:.3f} of {goal:.4g} going {label}"
-                    + (f", blocked by {blockers[0]}" if blockers else "")
-                )
+                blockers = _blocking(model, data, moving, before)
+                if blockers:
+                    entry.setdefault("blocked_by", {})[label] = blockers
+                text = f"{self.short(name)} stops at {q:.3f} of {goal:.4g} going {label}"
+                if not low - tol <= q <= high + tol:  # past the end: the limit gave way to the servo
+                    problems.append(
+                        f"{self.short(name)} goes through its limit to {q:.3f} (range {low:.4g} .. {high:.4g})"
+                    )
+                elif not blockers:
+                    problems.append(text + ", nothing in contact: its servo cannot carry the load (or is too slow)")
+                elif notes is not None:
+                    entry["own_robot"] = True
+                    notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
+                else:
+                    problems.append(text + f", blocked by {blockers[0]}")
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))
                 got = float(data.qpos[model.jnt_qposadr[model.joint(e.joint).id]])
@@ -153,6 +207,7 @@ class _Strokes:
                 entry["followers"].setdefault(e.joint, {})[label] = got
                 if abs(got - expected) > TOLERANCE * span and abs(q - goal) <= tol:
                     problems.append(f"{e.joint} reaches {got:.3f}, not {expected:.3f}, at {name} {label}")
-        entry["reached"] = [reached["lower"], reached["upper"]]
-        entry["fraction"] = (reached["upper"] - reached["lower"]) / (high - low) if high > low else 1.0
+        lowest = reached.get("lower", reached["start"])
+        entry["reached"] = [lowest, reached["upper"]]
+        entry["fraction"] = (reached["upper"] - lowest) / (high - low) if high > low else 1.0
         return entry

@@ -15,6 +15,7 @@ from svhdesc.validate.contact_stability import check_contact_stability
 from svhdesc.validate.coupling import check_coupling_spec, check_limits
 from svhdesc.validate.fingertip_force import check_fingertip_force
 from svhdesc.validate.grasps import check_grasps
+from svhdesc.validate.hold import check_gravity_hold
 from svhdesc.validate.kinematics import check_kinematics
 from svhdesc.validate.load_limits import check_load_limits
 from svhdesc.validate.mass import check_inertia, check_mass_agreement, check_mass_budget, check_min_mass
@@ -46,6 +47,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_semantics, ("semantics",)),
     (check_load_limits, ("load_limits",)),
     (check_self_collision, ("self_collision",)),
+    (check_gravity_hold, ("gravity_hold",)),
     (check_collision_fidelity, ("collision_fidelity",)),
     (check_range_of_motion, ("range_of_motion",)),
     (check_contact_stability, ("contact_stability",)),

@@ -36,7 +36,7 @@ XARM_FOLLOWERS = {
 }
 NOT_AN_SVH = {"collision_fidelity", "contact_stability", "fingertip_force", "grasps"}  # the SVH's facts
 SKIPPED = {
-    "ur5": NOT_AN_SVH | {"load_limits", "range_of_motion", "coupling_tracking", "coupling_spec", "limits"},
+    "ur5": NOT_AN_SVH | {"load_limits", "coupling_tracking", "coupling_spec", "limits"},  # its arm joints: driven
     "xarm6_gripper": NOT_AN_SVH,  # its gripper is driven end to end and loaded like any hand
 }
 

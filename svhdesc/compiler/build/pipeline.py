@@ -22,12 +22,12 @@ from lxml import etree
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.settings.config import Config, Variant
-from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.compiler.settings.coupling import load_spec, spec_from_mimics
 from svhdesc.compiler.settings.schema import Settings
 from svhdesc.compiler.settings.yamlio import where
 from svhdesc.compiler.source import mount as mount_source
 from svhdesc.compiler.source.packages import resolve_uri
-from svhdesc.compiler.source.urdf import read_urdf
+from svhdesc.compiler.source.urdf import SourceMimic, read_mimics, read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.assets import Assets
@@ -86,7 +86,15 @@ PROCESSORS: tuple[Processor, ...] = (
     Processor("inertials", add_inertials, lambda plan: (plan.settings.mass, plan.settings.hand)),
     Processor("physics", add_contact, lambda plan: (plan.settings.contact, plan.settings.hand)),
     Processor(
-        "physics", add_actuation, lambda plan: (plan.settings.hand, plan.settings.arm, plan.settings.transmissions)
+        "physics",
+        add_actuation,
+        lambda plan: (
+            plan.settings.hand,
+            plan.settings.arm,
+            plan.settings.transmissions,
+            plan.settings.joints,
+            plan.settings.simulation.friction_cap,
+        ),
     ),
     Processor("physics", add_keyframes, lambda plan: (plan.settings.keyframes, plan.settings.hand, plan.settings.arm)),
     Processor("physics", add_force_sensor, lambda plan: plan.settings.hand),
@@ -102,7 +110,7 @@ CHECKS: tuple[Check, ...] = (
 )
 
 # These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
-SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: None),)
+SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: plan.settings.collision),)
 
 
 @dataclass
@@ -116,6 +124,7 @@ class Compiled:
 class Source:
     robot: Robot  # as read
     inputs: list[Path]
+    mimics: list[SourceMimic]  # the source's <mimic> tags: the coupling spec when the config gives none
 
 
 def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
@@ -127,7 +136,8 @@ def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -
     args = mount_source.hand_args(mount, str(variant.settings.hand.prefix))
     hand = _read(mount_source.hand_xacro(), args, mount_source.hand_packages(packages), timings)
     robot = mount_source.graft(arm.robot, hand.robot, mount)
-    return Source(replace(robot, name=variant.name), list(dict.fromkeys([*arm.inputs, *hand.inputs])))
+    # the arm's own <mimic> tags only: the hand's couplings come from its spec
+    return Source(replace(robot, name=variant.name), list(dict.fromkeys([*arm.inputs, *hand.inputs])), arm.mimics)
 
 
 def _read(xacro: Path, args: dict[str, str], packages: dict[str, Path], timings: Timings) -> Source:
@@ -135,7 +145,8 @@ def _read(xacro: Path, args: dict[str, str], packages: dict[str, Path], timings:
         tree, inputs = expand_xacro(xacro, args, packages)
     with timings.stage("read"):
         robot = read_urdf(tree, packages, xacro, inputs)
-    return Source(robot, [*inputs, *_mesh_sources(tree, packages, xacro)])
+    mimics = read_mimics(tree, xacro, inputs)
+    return Source(robot, [*inputs, *_mesh_sources(tree, packages, xacro)], mimics)
 
 
 def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullSource | None, timings: Timings) -> Plan:
@@ -147,8 +158,11 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     settings = variant.settings
     spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
-        spec = load_spec(spec_path) if spec_path is not None else None
-    coupled = Coupled(spec, settings.hand.prefix, settings.coupled_limits == "widen", settings.hand.at("prefix"))
+        if spec_path is not None:
+            spec, prefix = load_spec(spec_path), settings.hand.prefix
+        else:  # the source's own <mimic> tags, with the source's full joint names
+            spec, prefix = spec_from_mimics(source.robot, source.mimics, variant.xacro), None
+    coupled = Coupled(spec, prefix, settings.coupled_limits == "widen", settings.hand.at("prefix"))
     rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
     inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))

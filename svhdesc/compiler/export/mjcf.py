@@ -217,7 +217,7 @@ def _compiler_and_options(root: etree._Element, robot: Robot) -> None:
     physics = robot.physics
     sub(root, "compiler", angle="radian", meshdir="assets", autolimits="true")
     option = sub(
-        root, "option", timestep=num(physics.timestep), integrator="implicitfast", cone="elliptic", impratio="10"
+        root, "option", timestep=num(physics.timestep), integrator="implicitfast", cone=physics.cone, impratio="10"
     )
     if physics.noslip_iterations:
         option.set("noslip_iterations", str(physics.noslip_iterations))

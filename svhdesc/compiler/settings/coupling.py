@@ -11,6 +11,7 @@ import numpy as np
 
 from svhdesc.compiler.settings.schema import number, numbers, text
 from svhdesc.compiler.settings.yamlio import load_yaml, where
+from svhdesc.compiler.source.urdf import SourceMimic
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Channel, Coupling, Mimic, Robot
 from svhdesc.polynomial import image, linearise, polyval
@@ -28,6 +29,7 @@ __all__ = [
     "load_spec",
     "polyval",
     "propagate",
+    "spec_from_mimics",
 ]
 
 
@@ -58,6 +60,43 @@ def load_spec(path: Path) -> CouplingSpec:
     for item in data.get("couplings") or []:
         couplings.append(_coupling(item, couplings_at, channel_names, couplings, lines))
     _check_graph(couplings, channel_names, lines)
+    return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> CouplingSpec | None:
+    """The coupling spec a URDF's ``<mimic>`` tags make when the config gives none: each leader a channel (its
+    range, effort and velocity from the leader joint's limits), each mimic joint a linear coupling
+    [offset, multiplier]. A mimic of a mimic is composed onto the chain's first leader. None: no mimic tags."""
+    if not mimics:
+        return None
+    by_joint = {m.joint: m for m in mimics}
+    joints = {j.name: j for j in robot.joints}
+    couplings, lines, leaders = [], {}, []
+    for mimic in mimics:
+        leader, factor, offset, seen = mimic.leader, mimic.multiplier, mimic.offset, {mimic.joint}
+        while leader in by_joint:  # compose joint = f * (f2 * x + o2) + o onto the chain's first leader
+            if leader in seen:
+                raise SvhdescError(f"{mimic.where}: <mimic> tags form a cycle through joint {leader}")
+            seen.add(leader)
+            up = by_joint[leader]
+            leader, factor, offset = up.leader, factor * up.multiplier, factor * up.offset + offset
+        if leader not in joints or not joints[leader].movable:
+            raise SvhdescError(f"{mimic.where}: <mimic> names joint {leader!r}, which is no movable joint")
+        couplings.append(Coupling(mimic.joint, leader, (offset, factor)))
+        lines[mimic.joint] = mimic.where
+        if leader not in leaders:
+            leaders.append(leader)
+    channels = []
+    for name in leaders:
+        joint = joints[name]
+        where_ = joint.source or str(path)
+        if not joint.lower < joint.upper or joint.effort <= 0 or joint.velocity <= 0:
+            raise SvhdescError(
+                f"{where_}: joint {name} leads <mimic> joints, so it becomes a channel: it needs a <limit> with "
+                "lower < upper, effort > 0 and velocity > 0 (or give a coupling spec in the config)"
+            )
+        channels.append(Channel(name, name, joint.lower, joint.upper, joint.effort, joint.velocity))
+        lines[name] = where_
     return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
 
 

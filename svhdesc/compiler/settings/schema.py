@@ -327,9 +327,11 @@ def _inertials(value: Any, at: str) -> str | Node:
 class Mass(Located):
     budgets: list[Any] = _field([], _budgets)
     links: dict[str, float] = _field({}, mapping_of(number(0.0, 1e4, strict=True)))
-    # {link: {mass, com, inertia}} wins over everything. `recompute` replaces third-party inertials with the
-    # cylinder fitted to the link's geometry, at the link's mass: for all links whose source inertial is invalid
-    # (`inertials: recompute`), or for one link whatever its source says (`inertials: {link: recompute}`).
+    # {link: {mass, com, inertia}} wins over everything (inertia in the order ixx, ixy, ixz, iyy, iyz, izz, in
+    # the link frame; com in the link frame). A source inertial that is invalid is always replaced, with a
+    # warning: by the cylinder fitted to the link's geometry at the link's mass, or, for a link without geometry,
+    # by a sphere (docs/any-robot.md). `recompute` replaces one link's inertial whatever its source says
+    # (`inertials: {link: recompute}`); `inertials: recompute` is kept for older configs (the default now).
     inertials: dict[str, Any] | str = _field({}, _inertials)
 
     @property
@@ -371,6 +373,14 @@ class Simulation(Located):
     coupling_solref: list[float] = _field([0.002, 1.0], solref)
     coupling_solimp: list[float] = _field([0.99, 0.999, 0.0001, 0.5, 2.0], solimp)
     gravity_compensation: bool = _field(True, boolean)
+    # MuJoCo's friction cone: elliptic (the default, what Warp and MJX implement best) or pyramidal (which
+    # kept the Allegro hand's crowded fingertips stable where the elliptic cone diverged)
+    cone: str = _field("elliptic", choice("elliptic", "pyramidal"))
+    # The source's <dynamics friction> becomes MuJoCo's frictionloss, capped at this fraction of the joint's
+    # effort (with a warning): a position servo of kp = effort / 0.1 rad stalls friction / kp off its target,
+    # and a source friction of 2/3 of the effort (the Allegro's) left the joints at 28 % of their range.
+    # joints.NAME.friction sets one joint's friction whatever this says.
+    friction_cap: float = _field(0.1, number(0.0, 1.0))
 
 
 @dataclass(frozen=True)
@@ -428,6 +438,18 @@ def _grasp(value: Any, at: str) -> Node:
 
 
 @dataclass(frozen=True)
+class JointDynamics(Located):
+    """One joint's dynamics, over the source's <dynamics> and the hand/arm sections' defaults."""
+
+    damping: float | None = _field(None, optional(number(0.0)))  # N m s/rad (N s/m for a sliding joint)
+    friction: float | None = _field(None, optional(number(0.0)))  # N m (N): MuJoCo's frictionloss
+
+
+def _joint_dynamics(value: Any, at: str) -> JointDynamics:
+    return _section(JointDynamics, value, at)[0]
+
+
+@dataclass(frozen=True)
 class Settings(Located):
     coupling: str | None = _field(None, optional(text))  # the coupling spec; none for a robot without couplings
     coupled_limits: str = _field("error", choice("error", "widen"))
@@ -443,6 +465,7 @@ class Settings(Located):
     keyframes: dict[str, Any] = _field({}, mapping_of(_keyframe))
     grasps: dict[str, Any] = _field({}, mapping_of(_grasp))
     collision: dict[str, Any] = field(default=None, metadata={"check": free, "required": False, "section": True})
+    joints: dict[str, Any] = _field({}, mapping_of(_joint_dynamics))  # {joint: {damping, friction}}
 
 
 def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -232,6 +233,36 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
         friction=friction,
         source=where,
     )
+
+
+@dataclass(frozen=True)
+class SourceMimic:
+    """A ``<mimic joint= multiplier= offset=>`` tag of the source: joint = multiplier * leader + offset."""
+
+    joint: str
+    leader: str
+    multiplier: float
+    offset: float
+    where: str  # file:line of the joint
+
+
+def read_mimics(root: etree._Element, source: Path, files: Sequence[Path] = ()) -> list[SourceMimic]:
+    """The source's mimic tags, in document order (read_urdf drops them: the coupling spec decides; without
+    one, they become it)."""
+    files = list(files) or [source]
+    found = []
+    for element in root.findall("joint"):
+        tag = element.find("mimic")
+        if tag is None:
+            continue
+        name = element.get("name")
+        where = f"{locate(files, 'joint', name, source)}: joint {name}"
+        leader = tag.get("joint")
+        if not leader:
+            raise SvhdescError(f"{where}: <mimic> needs joint=...")
+        factor, offset = _number(tag, "multiplier", 1.0, where), _number(tag, "offset", 0.0, where)
+        found.append(SourceMimic(str(name), leader, factor, offset, where))
+    return found
 
 
 def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, files: Sequence[Path] = ()) -> Robot:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from typing import Any
 
@@ -31,9 +32,48 @@ def arm_joints(robot: Robot, arm: Arm) -> list[str]:
     return list(arm.joints)
 
 
-def add_actuation(robot: Robot, assets: Assets, section: tuple[Hand, Arm, Transmissions]) -> Robot:
+class FrictionWarning(UserWarning):
+    """A source's joint friction was capped so that the joint's drive can beat it."""
+
+
+def _damping(joint: Joint, section: Hand | Arm, key: str) -> float:
+    """The section's damping where the config writes it, else the source's <dynamics damping>."""
+    return float(getattr(section, key)) if key in section.lines else joint.damping
+
+
+def _joint_dynamics(joint: Joint, overrides: dict[str, Any], friction_cap: float) -> Joint:
+    """joints.NAME's damping and friction over everything; else the source's friction, capped at
+    ``friction_cap`` x effort (a weak drive must beat it), with one warning naming the joint."""
+    given = overrides.get(joint.name)
+    damping = given.damping if given is not None and given.damping is not None else joint.damping
+    if given is not None and given.friction is not None:
+        return replace(joint, damping=damping, friction=given.friction)
+    friction, cap = joint.friction, friction_cap * joint.effort
+    if joint.effort > 0 and friction > cap:
+        warnings.warn(
+            f"joint {joint.name}: source friction {friction:g} capped at {cap:g} ({friction_cap:g} x its effort "
+            f"{joint.effort:g}) so that its drive can beat it; set joints.{joint.name}.friction to keep it",
+            FrictionWarning,
+            stacklevel=3,
+        )
+        friction = cap
+    return replace(joint, damping=damping, friction=friction)
+
+
+def _check_joint_names(robot: Robot, overrides: dict[str, Any]) -> None:
+    names = {j.name for j in robot.joints}
+    for name in overrides:
+        if name not in names:
+            at = getattr(overrides, "lines", {}).get(name, "config")
+            raise SvhdescError(f"{at}: joints.{name}: no joint {name!r} in robot {robot.name}")
+
+
+def add_actuation(
+    robot: Robot, assets: Assets, section: tuple[Hand, Arm, Transmissions, dict[str, Any], float]
+) -> Robot:
     """Channels and arm joints become position actuators with ros_control transmissions."""
-    hand, arm, transmissions = section
+    hand, arm, transmissions, overrides, friction_cap = section
+    _check_joint_names(robot, overrides)
     interface = INTERFACES[transmissions.interface]
     joints = {j.name: j for j in robot.joints}
     channel_of = {c.joint: c for c in robot.channels}
@@ -60,7 +100,7 @@ def add_actuation(robot: Robot, assets: Assets, section: tuple[Hand, Arm, Transm
                 effort=channel.effort,
                 velocity=channel.velocity * _speed_ratio(joint, channel),
                 # The drive's friction and reflected inertia sit at the motor, i.e. the channel joint.
-                damping=hand.joint_damping if joint.name in channel_of else hand.coupled_joint_damping,
+                damping=_damping(joint, hand, "joint_damping" if joint.name in channel_of else "coupled_joint_damping"),
                 armature=hand.joint_armature if joint.name in channel_of else hand.coupled_joint_armature,
                 limit_margin=hand.limit_margin,
                 limit_solref=_solref(hand.limit_solref),
@@ -68,12 +108,12 @@ def add_actuation(robot: Robot, assets: Assets, section: tuple[Hand, Arm, Transm
         elif joint.name in names:
             joint = replace(
                 joint,
-                damping=arm.joint_damping,
+                damping=_damping(joint, arm, "joint_damping"),
                 armature=arm.joint_armature,
                 limit_margin=arm.limit_margin,
                 limit_solref=_solref(arm.limit_solref),
             )
-        updated.append(joint)
+        updated.append(_joint_dynamics(joint, overrides, friction_cap) if joint.movable else joint)
     transmissions_ = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
     return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions_)
 

@@ -65,7 +65,7 @@ def _classes(
 def collision_rules(robot: Robot, collision: dict[str, Any], hand_prefix: str | None) -> dict[str, CollisionRule]:
     """Rule per link with collision geometry: first matching class, then per-link overrides."""
     at = where(collision, "collision")
-    unknown = set(collision) - {"mode", "primitive", "params", "classes", "links"}
+    unknown = set(collision) - {"mode", "primitive", "params", "classes", "links", "exclude"}
     if unknown:
         raise SvhdescError(f"{at}: collision: unknown key(s) {sorted(map(str, unknown))}")
     global_params = collision.get("params") or {}

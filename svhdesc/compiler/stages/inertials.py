@@ -92,6 +92,8 @@ def add_inertials(robot: Robot, assets: Assets, section: tuple[Mass, Hand]) -> R
         if link.name in explicit_full:
             spec = explicit_full[link.name]
             inertial = Inertial(float(spec["mass"]), tuple(spec["com"]), tuple(spec["inertia"]))  # type: ignore[arg-type]
+        elif link.name not in solids and (link.name in mass.links or _invalid_frame(link, mass)):
+            inertial = _frame_inertial(link, mass)  # a geometry-less link: nothing to fit a cylinder to
         elif link.inertial is not None:
             inertial = _from_source(link, solids, mass)  # explicit in the source, or recomputed
         elif link.name in solids:
@@ -114,7 +116,7 @@ def _masses(
     """Link masses: explicit ones, the tiny mass of geometry-less links, then each budget split by volume."""
     masses: dict[str, float] = {n: float(m) for n, m in mass.links.items() if n in solids}
     tiny = needs_tiny_mass(robot) - explicit_full
-    masses.update({name: TINY_MASS for name in tiny})
+    masses.update({name: float(mass.links.get(name, TINY_MASS)) for name in tiny})
     for budget in mass.budgets:
         pattern = expand_hand(str(budget["links"]), hand_prefix, budget.lines.get("links", budget.where))
         members = [n for n in [*solids, *sorted(tiny)] if fnmatch.fnmatchcase(n, pattern)]
@@ -138,9 +140,8 @@ def _check_recompute_names(robot: Robot, mass: Mass) -> None:
         at = mass.inertials.lines.get(name, mass.at("inertials"))  # type: ignore[union-attr]
         if link is None:
             continue  # another variant's link (names are checked across the config's variants)
-        if link.inertial is None or not link.has_geometry:
-            lacking = "no inertial in its source" if link.inertial is None else "no geometry to fit a cylinder to"
-            raise SvhdescError(f"{at}: mass.inertials.{name}: recompute: link {name} has {lacking}")
+        if link.inertial is None and link.has_geometry:
+            raise SvhdescError(f"{at}: mass.inertials.{name}: recompute: link {name} has no inertial in its source")
 
 
 def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], mass: Mass) -> Inertial:
@@ -149,14 +150,15 @@ def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], mass: Mass) -> 
     assert link.inertial is not None
     problem = inertial_problem(link.inertial)
     asked = link.name in mass.recompute_links
-    if not asked and not (problem and mass.recompute_all and link.name in solids):
+    if not asked and not problem:
         return link.inertial
     weight = float(mass.links.get(link.name, link.inertial.mass))  # the tensor is what is wrong, not the mass
-    if weight <= 0:
-        raise SvhdescError(f"link {link.name}: recompute needs a mass > 0: give it in mass.links")
+    stated = ""
+    if weight <= 0:  # a massless part with geometry (a marker, a sensor housing): the frames' tiny mass
+        weight, stated = TINY_MASS, f" (the source's mass is {link.inertial.mass:g}: the tiny mass of frames)"
     reason = f"source inertial invalid ({problem})" if problem else "source inertial replaced as configured"
     warnings.warn(
-        f"link {link.name}: {reason}; recomputed as a cylinder of {weight:g} kg fitted to its geometry",
+        f"link {link.name}: {reason}; recomputed as a cylinder of {weight:g} kg{stated} fitted to its geometry",
         InertialWarning,
         stacklevel=2,
     )
@@ -165,6 +167,41 @@ def _from_source(link: Link, solids: dict[str, trimesh.Trimesh], mass: Mass) -> 
 
 TINY_MASS = 1e-4  # kg: valid everywhere, negligible against a 7 g fingertip
 TINY_INERTIAL = Inertial(TINY_MASS, (0.0, 0.0, 0.0), (1e-9, 0.0, 0.0, 1e-9, 0.0, 1e-9))
+FRAME_RADIUS = 0.01  # m: the solid sphere a geometry-less link's configured mass is spread over
+
+
+def _invalid_frame(link: Link, mass: Mass) -> bool:
+    """A geometry-less link whose source inertial is invalid (panda_link8's mass 0) or is to be recomputed."""
+    if link.inertial is None:
+        return False
+    return link.name in mass.recompute_links or inertial_problem(link.inertial) is not None
+
+
+def _frame_inertial(link: Link, mass: Mass) -> Inertial:
+    """A geometry-less link's inertial, with one warning naming it: its configured mass (mass.links) as a solid
+    sphere of FRAME_RADIUS, else its source's mass if > 0, else the tiny inertial every frame gets; at the
+    source's centre of mass where it gives one."""
+    source = link.inertial
+    centre = source.com if source is not None else (0.0, 0.0, 0.0)
+    weight = float(mass.links.get(link.name, source.mass if source is not None else 0.0))
+    if weight <= 0:
+        problem = inertial_problem(source) if source is not None else "no inertial"
+        warnings.warn(
+            f"link {link.name}: no geometry and source inertial invalid ({problem}); "
+            f"given the tiny inertial of frames ({TINY_MASS:g} kg, 1e-9 kg m^2)",
+            InertialWarning,
+            stacklevel=3,
+        )
+        return replace(TINY_INERTIAL, com=centre)
+    moment = 0.4 * weight * FRAME_RADIUS**2
+    how = "mass.links" if link.name in mass.links else "its source's mass"
+    warnings.warn(
+        f"link {link.name}: no geometry; its inertial is a solid sphere of {weight:g} kg ({how}), "
+        f"radius {FRAME_RADIUS:g} m",
+        InertialWarning,
+        stacklevel=3,
+    )
+    return Inertial(weight, centre, (moment, 0.0, 0.0, moment, 0.0, moment))
 
 
 def needs_tiny_mass(robot: Robot) -> set[str]:

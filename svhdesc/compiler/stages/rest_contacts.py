@@ -5,9 +5,11 @@ Lives beside the pipeline, not among the stages, because it needs an exporter.
 
 from __future__ import annotations
 
+from typing import Any
+
 from svhdesc.compiler.export.mjcf import export_mjcf
 from svhdesc.compiler.stages.assets import Assets
-from svhdesc.compiler.stages.collisions import add_excludes
+from svhdesc.compiler.stages.collisions import add_excludes, configured_excludes
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 
@@ -29,6 +31,8 @@ def touching_at_rest(robot: Robot, assets: Assets) -> set[tuple[str, str]]:
     return pairs
 
 
-def exclude_touching(robot: Robot, assets: Assets, section: None = None) -> Robot:
-    """The exclusions processor: adjacent pairs, and the pairs this probe finds touching at rest."""
-    return add_excludes(robot, lambda r: touching_at_rest(r, assets))
+def exclude_touching(robot: Robot, assets: Assets, section: dict[str, Any] | None = None) -> Robot:
+    """The exclusions processor: adjacent pairs, ``collision.exclude``, and the pairs this probe finds
+    touching at rest."""
+    extra = configured_excludes(robot, section) if section is not None else set()
+    return add_excludes(robot, lambda r: touching_at_rest(r, assets), extra)

@@ -17,5 +17,6 @@ def add_world(robot: Robot, assets: Assets, section: tuple[Simulation, Scene]) -
         coupling_solref=tuple(simulation.coupling_solref),
         coupling_solimp=tuple(simulation.coupling_solimp),
         gravity_compensation=simulation.gravity_compensation,
+        cone=simulation.cone,
     )
     return replace(robot, physics=physics, ground=Ground(scene.floor_z, scene.pedestal_radius))

@@ -1,0 +1,235 @@
+"""``svhdesc init``: a commented starter config (and coupling spec) for a third-party URDF or xacro.
+
+The config is YAML text with comments (the values themselves go through yaml.safe_dump, so any joint or link
+name is quoted as YAML needs); it builds and validates unedited: every movable joint is driven (arm joints,
+or channels and coupled joints from the source's ``<mimic>`` tags), ``home`` lies inside every limit, and the
+packages the meshes name are found beside the source.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+from lxml import etree
+
+from svhdesc.compiler.settings.config import PYTHON
+from svhdesc.compiler.settings.coupling import spec_from_mimics
+from svhdesc.compiler.source.packages import package_name_of
+from svhdesc.compiler.source.urdf import read_mimics, read_urdf
+from svhdesc.compiler.source.xacro import expand_xacro
+from svhdesc.errors import SvhdescError
+from svhdesc.ir import Joint, Robot
+
+# A drive reaches its full effort this far from its target: kp = effort / STIFF_AT (rad or m); stiff enough to
+# hold against gravity (which the model compensates), soft enough for the default timestep.
+STIFF_AT = {"revolute": 0.1, "continuous": 0.1, "prismatic": 0.005}
+DEFAULT_KP = 100.0  # a joint whose source gives no effort
+ARMATURE = 0.1  # kg m^2 or kg: the channels' and coupled joints' armature
+GUESSED_MASS = 0.1  # kg: a link with geometry and no inertial in the source (init says so; weigh it)
+
+
+@dataclass(frozen=True)
+class Starter:
+    config: str  # YAML text
+    coupling: str | None  # YAML text of the coupling spec, None without <mimic> tags
+
+
+def _written_path(path: Path, config_dir: Path) -> str:
+    """``python:MODULE/SUB`` where ``path`` lies inside an installed Python package (a wheel's data), else
+    the path relative to the config's folder."""
+    path = path.resolve()
+    for parent in path.parents:
+        spec = importlib.util.find_spec(parent.name) if parent.name.isidentifier() else None
+        locations = list(spec.submodule_search_locations or []) if spec is not None else []
+        if locations and Path(locations[0]).resolve() == parent:
+            return f"{PYTHON}{parent.name}/{path.relative_to(parent).as_posix()}"
+    return Path(os.path.relpath(path, config_dir.resolve())).as_posix()
+
+
+def _mesh_packages(tree: etree._Element) -> list[str]:
+    uris = [m.get("filename", "") for m in tree.iter("mesh")]
+    found = {u[len("package://") :].partition("/")[0] for u in uris if u.startswith("package://")}
+    return sorted(found)
+
+
+def find_beside(name: str, source: Path) -> Path | None:
+    """Where ROS would find package ``name`` for a source file: the folder above the source that is that
+    package (its package.xml names it) or that holds a folder of that name."""
+    for folder in source.resolve().parents:
+        if package_name_of(folder) == name:
+            return folder
+        if (folder / name).is_dir():
+            return folder / name
+    return None
+
+
+def _packages(tree: etree._Element, source: Path, given: dict[str, Path]) -> dict[str, Path]:
+    packages = dict(given)
+    for name in _mesh_packages(tree):
+        if name in packages:
+            continue
+        found = find_beside(name, source) if name else None
+        if found is None:
+            raise SvhdescError(
+                f"{source}: its meshes name package '{name}', found neither above the source nor given "
+                f"(add --package {name}=DIR)"
+            )
+        packages[name] = found
+    return packages
+
+
+def _check_meshes(robot: Robot) -> None:
+    for link in robot.links:
+        for geometry in (*link.visuals, *link.collisions):
+            path = Path(geometry.mesh) if geometry.kind == "mesh" and geometry.mesh else None
+            if path is not None and not (path.is_file() and os.access(path, os.R_OK)):
+                raise SvhdescError(f"link {link.name}: mesh {path} is missing or unreadable")
+
+
+def _read(source: Path, given: dict[str, Path]) -> tuple[Robot, list, dict[str, Path]]:
+    if not source.is_file():
+        raise SvhdescError(f"{source}: no such file")
+    tree, inputs = expand_xacro(source, {}, given)
+    if tree.tag != "robot":
+        raise SvhdescError(f"{source}: not a URDF (its root element is <{tree.tag}>, not <robot>)")
+    packages = _packages(tree, source, given)
+    robot = read_urdf(tree, packages, source, inputs)
+    _check_meshes(robot)
+    return robot, read_mimics(tree, source, inputs), packages
+
+
+def _home(joint: Joint) -> float:
+    """0 where the limits allow it, else the middle of the range."""
+    if joint.type == "continuous" or joint.lower <= 0.0 <= joint.upper:
+        return 0.0
+    return round((joint.lower + joint.upper) / 2, 6)
+
+
+def _kp(joint: Joint) -> float:
+    return round(joint.effort / STIFF_AT[joint.type], 3) if joint.effort > 0 else DEFAULT_KP
+
+
+class _Dumper(yaml.SafeDumper):
+    """Mappings as blocks, lists of numbers and names on one line."""
+
+
+_Dumper.add_representer(
+    list, lambda dumper, data: dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=True)
+)
+
+
+def _dump(value: object) -> str:
+    return yaml.dump(value, Dumper=_Dumper, default_flow_style=False, sort_keys=False, width=110).rstrip("\n")
+
+
+def _block(comment: str, value: dict) -> list[str]:
+    return [*(f"# {line}".rstrip() for line in comment.splitlines()), _dump(value), ""]
+
+
+def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
+    """The starter config for ``source`` written to ``out`` (paths in it are relative to ``out``'s folder)."""
+    robot, mimics, packages = _read(source, given)
+    config_dir = out.parent
+    spec = spec_from_mimics(robot, mimics, source)
+    coupled = {c.joint for c in spec.couplings} if spec else set()
+    channels = [c.joint for c in spec.channels] if spec else []
+    movable = [j for j in robot.joints if j.movable]
+    if not movable:
+        raise SvhdescError(f"{source}: robot {robot.name} has no movable joint: nothing to drive")
+    arm = [j for j in movable if j.name not in coupled and j.name not in channels]
+    joints = {j.name: j for j in robot.joints}
+    lines = [
+        f"# Starter config for {source.name} (robot {robot.name}), written by `svhdesc init`.",
+        "# Build and check it with",
+        f"#   svhdesc build --config {out.name} --out OUT && svhdesc validate --config {out.name} --out OUT",
+        "# Every default the compiler applies to a third-party URDF is listed in docs/any-robot.md.",
+        "",
+    ]
+    used = {name: packages[name] for name in _mesh_packages_of(robot, packages)}
+    if used:
+        written = {name: _written_path(path, config_dir) for name, path in sorted(used.items())}
+        lines += _block(
+            "the packages its meshes name (package://NAME/...), found beside the source", {"packages": written}
+        )
+    coupling_name = None
+    if spec is not None:
+        coupling_name = f"{out.stem}.coupling.yaml"
+        lines += _block(
+            f"its <mimic> tags as a coupling spec (channels: {', '.join(channels)}); edit it to add the real\n"
+            "linkage's polynomials. Without this key the build reads the same spec from the <mimic> tags.",
+            {"coupling": coupling_name},
+        )
+        lead = [joints[n] for n in channels]
+        lines += _block(
+            "the drives of the channels: one position servo each (kp = largest effort / "
+            f"{STIFF_AT['prismatic']} m or {STIFF_AT['revolute']} rad). The armature (reflected rotor\n"
+            "inertia) keeps light followers on their channel while the arm jerks (the Panda's fingers: 1.8 mm\n"
+            "off without it, 0.8 mm with it, in validate's random targets)",
+            {"hand": {"kp": max(_kp(j) for j in lead), "joint_armature": ARMATURE, "coupled_joint_armature": ARMATURE}},
+        )
+        lines += _block(
+            "the couplings' equality constraints (solref 0.002 s) need a timestep <= 1 ms",
+            {"simulation": {"timestep": 0.001}},
+        )
+    if arm:
+        lines += _block(
+            "its independent movable joints: one position servo each, kp = effort / "
+            f"{STIFF_AT['revolute']} rad ({STIFF_AT['prismatic']} m);\n"
+            f"{DEFAULT_KP:g} where the source gives no effort",
+            {"arm": {"enabled": True, "joints": [j.name for j in arm], "kp": [_kp(j) for j in arm]}},
+        )
+    lines += _masses(robot)
+    lines += _block(
+        "hull: one convex hull per mesh (fast); decompose: a CoACD convex decomposition (slow, cached)",
+        {"collision": {"mode": "hull"}},
+    )
+    home = {j.name: _home(j) for j in movable if j.name not in coupled}
+    lines += _block(
+        "a pose inside every joint's limits (0, or the middle of a range without 0)", {"keyframes": {"home": home}}
+    )
+    lines += _block(
+        "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}
+    )
+    coupling = None
+    if spec is not None:
+        coupling = _coupling_text(spec, source)
+    return Starter("\n".join(lines), coupling)
+
+
+def _mesh_packages_of(robot: Robot, packages: dict[str, Path]) -> list[str]:
+    """The packages some mesh of ``robot`` lies in."""
+    files = [Path(g.mesh).resolve() for link in robot.links for g in (*link.visuals, *link.collisions) if g.mesh]
+    return [name for name, root in packages.items() if any(f.is_relative_to(root.resolve()) for f in files)]
+
+
+def _masses(robot: Robot) -> list[str]:
+    masses = {link.name: link.inertial.mass for link in robot.links if link.inertial is not None}
+    guessed = sorted(link.name for link in robot.links if link.inertial is None and link.has_geometry)
+    total = sum(m for m in masses.values() if m > 0)
+    comment = (
+        f"masses: the source's inertials are kept (total {total:.4g} kg over {len(masses)} links); an invalid one is\n"
+        "recomputed from the link's geometry, with a warning. mass.links sets a link's mass (kg)"
+    )
+    if not guessed:
+        return [*(f"# {line}" for line in comment.splitlines()), "# mass: {links: {LINK: KG}}", ""]
+    comment += (
+        f";\nthese links have geometry but no inertial in the source: {GUESSED_MASS} kg each is a GUESS, weigh them"
+    )
+    return _block(comment, {"mass": {"links": {name: GUESSED_MASS for name in guessed}}})
+
+
+def _coupling_text(spec, source: Path) -> str:  # type: ignore[no-untyped-def]
+    channels = [
+        {"name": c.name, "range": [c.lower, c.upper], "effort": c.effort, "velocity": c.velocity} for c in spec.channels
+    ]
+    couplings = [{"joint": c.joint, "follows": c.channel, "poly": list(c.coeffs)} for c in spec.couplings]
+    header = (
+        f"# The coupling spec of {source.name}, from its <mimic> tags (svhdesc init): each channel is one drive\n"
+        "# (range in rad or m, effort, velocity from the leader joint's <limit>); each coupled joint follows one\n"
+        "# channel as joint = poly[0] + poly[1] * channel + poly[2] * channel^2 + ... (docs/any-robot.md).\n"
+    )
+    return header + _dump({"channels": channels, "couplings": couplings}) + "\n"

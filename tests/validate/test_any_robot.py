@@ -1,0 +1,197 @@
+"""validate's checks on a robot that is not the SVH: the hand-written three-joint arm with a sliding finger of
+tests/data/arm3 (no build, no configuration), each check failing on a seeded fault and naming the culprit.
+
+Seeded faults (each an lxml edit of a copy): a post moved into the arm's way (range_of_motion names the pair); a
+coupling that makes two bodies moved by one joint meet (the pair is named although both move); a weak elbow servo
+(gravity_hold and range_of_motion fail); a soft wrist limit (range_of_motion: through its limit); a keyframe
+folding the arm into itself (self_collision fails); MuJoCo Warp and MJX not importable (batch skipped with the
+reason, exit 0); MJX's put_model refusing a cylinder-mesh pair (that half skipped); gravity 1e12 (load_limits
+names the joint that ran away).
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import mujoco
+import pytest
+from lxml import etree
+
+from svhdesc.validate.batch import _engine, check_batch, mjx_accepts
+from svhdesc.validate.collision import check_self_collision
+from svhdesc.validate.hold import BOUND, check_gravity_hold
+from svhdesc.validate.load_limits import LOAD_FACTOR, LOAD_MAX, check_load_limits, tip_loads
+from svhdesc.validate.options import Options
+from svhdesc.validate.pair import ModelPair, load_pair
+from svhdesc.validate.range_of_motion import check_range_of_motion
+from tests.support import REPO, run_cli
+
+ARM = REPO / "tests" / "data" / "arm3" / "arm3.xml"
+SVH = REPO / "generated" / "svh_right"
+OPTIONS = Options()
+
+Edit = Callable[[etree._ElementTree], None]
+
+
+def arm(tmp_path: Path, edit: Edit | None = None) -> ModelPair:
+    tree = etree.parse(str(ARM))
+    if edit is not None:
+        edit(tree)
+    path = tmp_path / "arm3.xml"
+    tree.write(str(path))
+    return load_pair(tmp_path / "arm3.urdf", path)  # the URDF is not read by these checks
+
+
+def only(checks: list) -> object:
+    (check,) = checks
+    return check
+
+
+def test_unmodified_arm_passes_and_every_actuated_joint_is_driven(tmp_path: Path) -> None:
+    pair = arm(tmp_path)
+    motion = only(check_range_of_motion(pair, OPTIONS))
+    assert motion.status == "pass", motion.detail
+    assert list(motion.data["driven"]) == ["shoulder", "elbow", "wrist", "finger_slide"]  # no `arm:` list needed
+    assert all(e["fraction"] > 0.99 for e in motion.data["driven"].values())
+    assert not motion.data["notes"]
+    hold = only(check_gravity_hold(pair, OPTIONS))
+    assert hold.status == "pass" and hold.data["keyframes"]["home"]["drift"] < BOUND, hold.detail
+    assert only(check_self_collision(pair, OPTIONS)).status == "pass"
+
+
+def test_arm_joint_blocked_by_a_collision_names_the_pair(tmp_path: Path) -> None:
+    """The post moved under the arm: the shoulder stops on it, and the note names link1/post (an arm's range may
+    cross its surroundings; a stop with nothing in contact is the failure, see the weak servo below)."""
+    pair = arm(tmp_path, lambda t: t.find(".//body[@name='post']").set("pos", "0.25 0 -0.3"))
+    check = only(check_range_of_motion(pair, OPTIONS))
+    shoulder = check.data["driven"]["shoulder"]
+    assert shoulder["fraction"] < 0.9 and shoulder["blocked_by"]["upper"][0] == "link1/post"
+    assert "shoulder stops at" in check.detail and "link1/post" in check.detail
+
+
+def couple_wrist_to_shoulder(tree: etree._ElementTree) -> None:
+    """The wrist follows the shoulder x1.8 (its servo removed), the elbow folded at home: the shoulder's stroke
+    swings link3 into link1, two bodies that both move with it."""
+    servo = tree.find(".//position[@name='wrist']")
+    servo.getparent().remove(servo)
+    equality = etree.SubElement(etree.SubElement(tree.getroot(), "equality"), "joint")
+    equality.attrib.update({"joint1": "wrist", "joint2": "shoulder", "polycoef": "0 1.8 0 0 0"})
+    tree.find(".//key[@name='home']").attrib.update({"qpos": "0 2.2 0 0.02", "ctrl": "0 2.2 0.02"})
+
+
+def test_blocking_pair_is_named_when_both_bodies_move_with_the_joint(tmp_path: Path) -> None:
+    check = only(check_range_of_motion(arm(tmp_path, couple_wrist_to_shoulder), OPTIONS))
+    shoulder = check.data["driven"]["shoulder"]
+    assert shoulder["fraction"] < 0.95
+    assert shoulder["blocked_by"]["upper"][0] == "link1/link3", shoulder
+
+
+def weak_elbow(tree: etree._ElementTree) -> None:
+    tree.find(".//joint[@name='elbow']").set("actuatorfrcrange", "-0.5 0.5")
+    tree.find(".//position[@name='elbow']").set("forcerange", "-0.5 0.5")
+
+
+def test_weak_arm_servo_fails_gravity_hold_and_range_of_motion(tmp_path: Path) -> None:
+    pair = arm(tmp_path, weak_elbow)
+    hold = only(check_gravity_hold(pair, OPTIONS))
+    assert hold.status == "fail" and "home: elbow leaves it by" in hold.detail, hold.detail
+    motion = only(check_range_of_motion(pair, OPTIONS))
+    assert motion.status == "fail" and "elbow stops at" in motion.detail and "nothing in contact" in motion.detail
+
+
+def soft_wrist_limit(tree: etree._ElementTree) -> None:
+    """A soft limit (solref 0.5 s), no damping and a stiff servo: the wrist swings through its stop."""
+    tree.find(".//joint[@name='wrist']").attrib.update({"solreflimit": "0.5 1", "damping": "0"})
+    tree.find(".//position[@name='wrist']").set("kp", "20000")
+
+
+def test_joint_through_its_limit_is_named_as_such(tmp_path: Path) -> None:
+    check = only(check_range_of_motion(arm(tmp_path, soft_wrist_limit), OPTIONS))
+    assert check.status == "fail" and "wrist goes through its limit to -3." in check.detail, check.detail
+    assert "wrist stops at" not in check.detail  # not mistaken for a weak servo
+
+
+def folded_keyframe(tree: etree._ElementTree) -> None:
+    key = etree.SubElement(tree.find(".//keyframe"), "key")
+    key.attrib.update({"name": "folded", "qpos": "0 2.8 1.2 0.02", "ctrl": "0 2.8 1.2 0.02"})
+
+
+def test_penetrating_keyframe_fails_self_collision(tmp_path: Path) -> None:
+    check = only(check_self_collision(arm(tmp_path, folded_keyframe), OPTIONS))
+    assert check.status == "fail" and check.detail.startswith("folded: link1/link3"), check.detail
+    assert [p["bodies"] for p in check.data["contacts"]["folded"]] == [["link1", "link3"]]
+
+
+def test_fingertip_load_is_twice_the_drive_force_at_the_tip(tmp_path: Path) -> None:
+    """The slide finger's 20 N servo: a 40 N push, not the SVH's 50 N. Through the wrist hinge (60 N m at about
+    0.26 m) the tip would take far more: the weakest drive of the chain sets it. Without hand joints: LOAD_MAX."""
+    model = arm(tmp_path).model
+    tip = model.body("finger").id
+    assert tip_loads(model, [tip], {"finger_slide", "wrist"}) == [pytest.approx(LOAD_FACTOR * 20.0)]
+    assert tip_loads(model, [tip], {"wrist"}) == [pytest.approx(LOAD_MAX)]  # 2 x 230 N capped
+    assert tip_loads(model, [tip], set()) == [pytest.approx(LOAD_MAX)]
+
+
+@pytest.mark.skipif(not (SVH / "svh_right.xml").is_file(), reason="generated/svh_right is not built")
+def test_load_limits_names_the_joint_that_ran_away(tmp_path: Path) -> None:
+    """Gravity 1e12 m/s^2: the loaded run diverges at once, and the detail says when, which joint and what MuJoCo
+    warned."""
+    target = tmp_path / "svh_right"
+    shutil.copytree(SVH, target)
+    mjcf = target / "svh_right.xml"
+    tree = etree.parse(str(mjcf))
+    tree.find("option").set("gravity", "0 0 -1e12")
+    tree.write(str(mjcf))
+    check = only(check_load_limits(load_pair(target / "svh_right.urdf", mjcf), OPTIONS))
+    assert check.status == "fail"
+    diverged = check.data["diverged"]
+    assert diverged.startswith("diverged at t = 0.000 s: right_hand_") and "ran away" in diverged, diverged
+    assert "MuJoCo warns BADQACC" in diverged and diverged in check.detail
+    assert check.data["loads_n"] and max(check.data["loads_n"].values()) <= LOAD_MAX
+
+
+@pytest.mark.skipif(not (SVH / "scene_batch.xml").is_file(), reason="generated/svh_right is not built")
+def test_batch_without_its_engines_is_skipped_with_the_reason(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Neither MuJoCo Warp nor MJX importable (the `validate` extra alone): skipped, each reason given, exit 0."""
+    for module in ("warp", "mujoco_warp", "mujoco.mjx"):
+        monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError, as when not installed
+    check = only(check_batch(load_pair(SVH / "svh_right.urdf", SVH / "svh_right.xml"), OPTIONS))
+    assert check.status == "skipped", check.detail
+    assert "warp not installed" in check.detail and "svhdesc[batch]" in check.detail
+    assert "mjx not installed" in check.detail and "svhdesc[batch-mjx]" in check.detail
+    args = ("validate", "--urdf", str(SVH / "svh_right.urdf"), "--mjcf", str(SVH / "svh_right.xml"))
+    result = run_cli(*args, "--checks", "batch", in_process=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "skipped (not applicable): batch (warp not installed" in result.stdout
+
+
+CYLINDER_MESH = """
+<mujoco>
+  <asset><mesh name="m" vertex="0 0 0 0.1 0 0 0 0.1 0 0 0 0.1"/></asset>
+  <worldbody>
+    <body name="a"><freejoint/><geom type="cylinder" size="0.05 0.1"/></body>
+    <body name="b" pos="0.5 0 0"><freejoint/><geom type="mesh" mesh="m"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjx_refusing_a_cylinder_mesh_pair_is_skipped_and_another_refusal_fails() -> None:
+    """MJX's own put_model on a model with a cylinder and a mesh (Talos' case): that half skipped with MJX's
+    message; an engine raising anything else is a finding."""
+    pytest.importorskip("mujoco.mjx")
+    model = mujoco.MjModel.from_xml_string(CYLINDER_MESH)
+    status, why = _engine("mjx", lambda: mjx_accepts(model))
+    assert status == "skipped" and "CYLINDER" in why and "MESH" in why and "not implemented" in why, why
+
+    def broken() -> None:
+        raise ValueError("bad model")
+
+    assert _engine("mjx", broken) == ("refused", "ValueError: bad model")
+
+
+def test_arm_model_compiles() -> None:
+    assert mujoco.MjModel.from_xml_path(str(ARM)).nu == 4
