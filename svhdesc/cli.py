@@ -666,7 +666,7 @@ def sim_command(
 
     objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros:
-        from svhdesc.ros.node import run_node
+        from svhdesc.ros1.node import run_node
 
         run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return
