@@ -25,6 +25,17 @@ class Loaded:
     resources: list[str]
     running: bool
     controller: Any = None  # with starting()/stopping(); None: always on (joint_state_controller)
+    started: bool = False  # ever started: a loaded, never-started controller is "initialized"
+
+    def __post_init__(self) -> None:
+        self.started = self.started or self.running
+
+    @property
+    def state(self) -> str:
+        """ros_control noetic's ControllerState.state: running, stopped, or initialized (never started)."""
+        if self.running:
+            return "running"
+        return "stopped" if self.started else "initialized"
 
 
 @dataclass(frozen=True)
@@ -46,8 +57,7 @@ class SwitchCore:
 
     def listed(self) -> list[ControllerInfo]:
         return [
-            ControllerInfo(c.name, c.type, "running" if c.running else "stopped", c.interface, list(c.resources))
-            for c in self.controllers.values()
+            ControllerInfo(c.name, c.type, c.state, c.interface, list(c.resources)) for c in self.controllers.values()
         ]
 
     def types(self) -> list[str]:
@@ -59,6 +69,9 @@ class SwitchCore:
             self._log("warn", "Controller Manager: no strictness given; defaulting to BEST_EFFORT")
             strictness = BEST_EFFORT
         strict = strictness == STRICT
+        both = sorted(set(start) & set(stop))
+        if both:  # ros_control 0.20 (ControllerManager::switchController) refuses this at any strictness
+            return self._refuse(f"{both} would be started and stopped at once")
         stopping = self._select(stop, lambda c: c.running, "stop", "not running", strict)
         if isinstance(stopping, str):
             return self._refuse(stopping)
@@ -73,7 +86,7 @@ class SwitchCore:
             loaded.running = False
         for loaded in starting:
             loaded.controller.starting()
-            loaded.running = True
+            loaded.running = loaded.started = True
         return True
 
     def _refuse(self, why: str) -> str:

@@ -90,6 +90,18 @@ class _Active:
     tolerances: Tolerances
 
 
+def _due(now: float, due: float, timestep: float) -> bool:
+    """Due within half a physics step: 0.02 s of steps never lands exactly on 0.02 in floating point."""
+    return now >= due - 0.5 * timestep
+
+
+def _next(due: float, period: float, now: float) -> float:
+    """The next instant on the fixed grid ``due + k * period`` (exact rates: not ``now + period``, which
+    loses a tick to rounding); after a pause (a stopped controller) the grid restarts at now."""
+    following = due + period
+    return following if following > now else now + period
+
+
 class JointTrajectoryCore:
     def __init__(
         self,
@@ -248,16 +260,17 @@ class JointTrajectoryCore:
         if not self.running:
             return
         now = self._sim.time
-        if now >= self._next_state:
+        if _due(now, self._next_state, self._sim.timestep):
             self.sink.state(self.sample(self.joints, now))
-            self._next_state = now + self._state_period
+            self._next_state = _next(self._next_state, self._state_period, now)
         active = self._active
         if active is None:
             return
         sample = self.sample(active.joints, now)
-        if now >= self._next_feedback:
-            self.sink.feedback(active.handle, sample)
-            self._next_feedback = now + self._feedback_period
+        if _due(now, self._next_feedback, self._sim.timestep):
+            # JTC's feedback names every joint of the controller, also for a partial goal.
+            self.sink.feedback(active.handle, self.sample(self.joints, now))
+            self._next_feedback = _next(self._next_feedback, self._feedback_period, now)
         if now < active.trajectory.end_time:
             self._check_path(active, sample)
         else:

@@ -533,7 +533,8 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
         wait_for(lambda: len(state.all) >= 6, 20, "a few states")
         assert len(first.joint_names) == 9 and first.joint_names[0] == "right_hand_Thumb_Flexion"
         stamps = [m.header.stamp.to_sec() for m in state.all[-5:]]
-        assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=0.011)  # 50 Hz of simulated time
+        # Exactly 50 Hz of simulated time (the rate rule itself: tests/control/test_trajectory_core.py).
+        assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=1e-6)
         # Compared at rest: a finger still on its way from an earlier goal moves between the two messages.
         positions = _at_rest(ros, list(first.joint_names))
         latest = state.fresh()
@@ -579,8 +580,8 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
         "joint_state_controller": "running",
         HAND: "running",
         ARM: "running",
-        "pos_joint_traj_controller": "stopped",
-        "joint_group_vel_controller": "stopped",
+        "pos_joint_traj_controller": "initialized",
+        "joint_group_vel_controller": "initialized",
     }
     claimed = {c.name: c.claimed_resources[0].resources for c in listing().controller}
     assert len(claimed[ARM]) == 6 and claimed[ARM] == claimed["pos_joint_traj_controller"]
@@ -590,6 +591,9 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
     assert not switch(["pos_joint_traj_controller"], [], best, False, 0.0).ok
     assert not switch(["pos_joint_traj_controller"], ["no_such_controller"], strict, False, 0.0).ok
     assert states()[ARM] == "running"
+    # ros_control 0.20 refuses starting and stopping one controller in one request (seeded fault: the
+    # former manager answered ok).
+    assert not switch([ARM], [ARM], best, False, 0.0).ok and states()[ARM] == "running"
     assert switch(["pos_joint_traj_controller"], [ARM, "no_such_controller"], best, False, 0.0).ok
     try:
         assert states()[ARM] == "stopped" and states()["pos_joint_traj_controller"] == "running"
