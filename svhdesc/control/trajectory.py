@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -90,6 +90,23 @@ class _Active:
     tolerances: Tolerances
 
 
+def first_occurrences(goal: Goal | Rejection) -> Goal | Rejection:
+    """A goal naming a joint twice as JTC reads it: its permutation maps each controller joint to the
+    first occurrence of the name, so later columns are ignored."""
+    if isinstance(goal, Rejection) or len(set(goal.joint_names)) == len(goal.joint_names):
+        return goal
+    names = list(goal.joint_names)
+    keep = [i for i, name in enumerate(names) if names.index(name) == i]
+
+    def pick(values: Sequence[float] | None) -> tuple[float, ...] | None:
+        if not values or len(values) != len(names):
+            return values if not values else tuple(values)  # a size error stays for the check
+        return tuple(values[i] for i in keep)
+
+    points = [Point(p.time, pick(p.positions) or (), pick(p.velocities), pick(p.accelerations)) for p in goal.points]
+    return replace(goal, joint_names=[names[i] for i in keep], points=points)
+
+
 def _due(now: float, due: float, timestep: float) -> bool:
     """Due within half a physics step: 0.02 s of steps never lands exactly on 0.02 in floating point."""
     return now >= due - 0.5 * timestep
@@ -133,6 +150,7 @@ class JointTrajectoryCore:
         self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
         self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
         self._limits = {j: sim.limits(j) for j in self.joints}
+        self._since = sim.time  # when the current hold began (query_state before it fails)
 
     @property
     def active_handle(self) -> Any:
@@ -142,6 +160,7 @@ class JointTrajectoryCore:
     def starting(self) -> None:
         """As JTC::starting: hold where the joints are."""
         self._sim.hold(self.joints)
+        self._since = self._sim.time
         self.running = True
 
     def stopping(self) -> None:
@@ -153,6 +172,8 @@ class JointTrajectoryCore:
     # -- goals, commands, cancel, queries -----------------------------------------------------
     def _check(self, goal: Goal) -> Rejection | None:
         try:
+            if len(set(goal.joint_names)) != len(goal.joint_names):
+                return Rejection(ErrorCode.INVALID_JOINTS, "internal: repeated names reach the check")
             return check_goal(
                 goal.joint_names,
                 goal.points,
@@ -183,6 +204,7 @@ class JointTrajectoryCore:
             return self._reject(
                 handle, Rejection(ErrorCode.INVALID_GOAL, "Can't accept new action goals. Controller is not running.")
             )
+        goal = first_occurrences(goal)
         rejection = goal if isinstance(goal, Rejection) else self._check(goal)
         if (
             isinstance(goal, Goal)
@@ -229,6 +251,7 @@ class JointTrajectoryCore:
         if not self.running:
             self.sink.warn(f"{self.name}/command: Can't accept new commands. Controller is not running.")
             return Rejection(ErrorCode.INVALID_GOAL, "not running")
+        goal = first_occurrences(goal)
         if isinstance(goal, Goal) and not goal.points:
             self._preempt("stopped by an empty command")
             self._sim.hold(self.joints)
@@ -247,6 +270,9 @@ class JointTrajectoryCore:
         """QueryTrajectoryState: the desired state at ``when``, or why it cannot be sampled."""
         if not self.running:
             return f"{self.name}: Can't sample trajectory. Controller is not running."
+        begin = self._since if self._active is None else self._active.trajectory.begin_time
+        if when < begin:  # JTC: the time precedes its trajectory (a hold starts when the controller starts)
+            return f"{self.name}: Requested sample time precedes trajectory start time."
         return self._sim.desired(self.joints, when)
 
     # -- every control period ----------------------------------------------------------------

@@ -79,3 +79,29 @@ def test_unknown_joint_is_rejected_with_invalid_joints(core: tuple[Simulation, J
     rejection = controller.submit(Goal(["no_such_joint"], [Point(1.0, (0.0,))]), "h")
     assert rejection is not None and rejection.code is ErrorCode.INVALID_JOINTS and int(rejection.code) == -2
     assert sink.events[-1] == ("rejected", rejection)
+
+
+def test_a_repeated_joint_is_accepted_and_its_first_column_wins(
+    core: tuple[Simulation, JointTrajectoryCore, Recorder],
+) -> None:
+    """As noetic's JTC (its permutation takes a name's first occurrence). Seeded fault: the former
+    INVALID_JOINTS rejection of repeated names."""
+    sim, controller, sink = core
+    joint = controller.joints[-1]
+    low, high = sim.limits(joint)
+    first, second = low + 0.6 * (high - low), low + 0.2 * (high - low)
+    assert controller.submit(Goal([joint, joint], [Point(0.3, (first, second))]), "h") is None
+    _run(sim, controller, 0.4)
+    assert sim.desired([joint]).positions[0] == pytest.approx(first)
+
+
+def test_query_before_the_trajectory_start_fails(core: tuple[Simulation, JointTrajectoryCore, Recorder]) -> None:
+    """As JTC's query_state: a time before the current trajectory (or hold) began is refused. Seeded
+    fault: the former query answered any time."""
+    sim, controller, _ = core
+    _run(sim, controller, 0.2)
+    joint = controller.joints[-1]
+    here = sim.desired([joint]).positions[0]
+    assert controller.submit(Goal([joint], [Point(0.5, (here,))]), "h") is None
+    assert isinstance(controller.query(sim.time - 0.1), str)
+    assert not isinstance(controller.query(sim.time + 0.1), str)
