@@ -111,6 +111,10 @@ class Trajectory:
         self._start = start
 
     @property
+    def begin_time(self) -> float:
+        return self._times[0]
+
+    @property
     def end_time(self) -> float:
         return self._times[-1]
 

@@ -20,7 +20,7 @@ import pytest
 import yaml
 
 import svhdesc
-from svhdesc.ros.system import ros_available
+from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
 
@@ -57,8 +57,8 @@ class Latest:
 
 @pytest.fixture(scope="module")
 def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
-    from svhdesc.ros.messages import control_msgs
-    from svhdesc.ros.system import import_ros
+    from svhdesc.ros1.messages import control_msgs
+    from svhdesc.ros1.system import import_ros
 
     rospy = import_ros()
     home = tmp_path_factory.mktemp("roshome")
@@ -149,7 +149,7 @@ def _at_rest(
 
 
 def test_goal_message_md5_matches_a_real_ros_system() -> None:
-    from svhdesc.ros.messages import control_msgs
+    from svhdesc.ros1.messages import control_msgs
 
     msgs = control_msgs()
     assert msgs.FollowJointTrajectoryActionGoal._md5sum == GOAL_MD5
@@ -208,7 +208,6 @@ def test_bad_goals_are_rejected_with_jtc_error_codes(ros: dict[str, Any]) -> Non
         (HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Ring_Finger"], [[0.1]], [1.0]), result.INVALID_GOAL),
         (HAND, old, result.INVALID_GOAL),
         (HAND, _goal(ros, ["right_hand_Pinky"], [[0.1], [0.2]], [1.0, 1.0]), result.INVALID_GOAL),  # not increasing
-        (HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Pinky"], [[0.1, 0.1]], [1.0]), result.INVALID_JOINTS),
     ]
     for controller, goal, code in cases:
         state, outcome = _send(ros, controller, goal)
@@ -216,6 +215,9 @@ def test_bad_goals_are_rejected_with_jtc_error_codes(ros: dict[str, Any]) -> Non
         assert outcome.error_string
     _, outcome = _send(ros, HAND, old)
     assert outcome.error_string.startswith("Dropping all 1 trajectory point(s), as they occur before the current")
+    # A repeated name is accepted as JTC does; its first column counts.
+    state, _ = _send(ros, HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Pinky"], [[0.1, 0.2]], [0.5]))
+    assert state == GoalStatus.SUCCEEDED
     positions = _positions(ros)
     assert all(math.isfinite(v) for v in positions.values())
 
@@ -350,7 +352,7 @@ def test_clock_tracked_pose_and_fingertip_wrench(ros: dict[str, Any]) -> None:
 def test_tf_from_robot_state_publisher_covers_every_frame(ros: dict[str, Any]) -> None:
     from lxml import etree
 
-    from svhdesc.ros.messages import dynamic_class
+    from svhdesc.ros1.messages import dynamic_class
 
     rospy = ros["rospy"]
     tf_message = dynamic_class("tf2_msgs/TFMessage", "geometry_msgs/TransformStamped[] transforms\n")
@@ -411,7 +413,7 @@ def test_missing_ros_names_the_apt_packages() -> None:
     """Run where the venv cannot see Debian's dist-packages (pointed elsewhere): one clear error."""
     code = (
         "import sys\n"
-        "import svhdesc.ros.system as system\n"
+        "import svhdesc.ros1.system as system\n"
         "system.DIST_PACKAGES = '/nonexistent'\n"
         "sys.path = [p for p in sys.path if 'dist-packages' not in p]\n"
         "try:\n"
@@ -466,7 +468,7 @@ def test_generated_message_md5sums_equal_noetic() -> None:
     rebuilt here agrees with genpy's own hash of FollowJointTrajectoryGoal."""
     import hashlib
 
-    from svhdesc.ros.messages import _own_definitions, control_msgs, controller_manager_msgs, md5_text
+    from svhdesc.ros1.messages import _own_definitions, control_msgs, controller_manager_msgs, md5_text
 
     msgs, manager = control_msgs(), controller_manager_msgs()
     assert manager.SwitchController._md5sum == "b29a7abc673b2c54c14b54e50f8d06a5"
@@ -533,7 +535,8 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
         wait_for(lambda: len(state.all) >= 6, 20, "a few states")
         assert len(first.joint_names) == 9 and first.joint_names[0] == "right_hand_Thumb_Flexion"
         stamps = [m.header.stamp.to_sec() for m in state.all[-5:]]
-        assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=0.011)  # 50 Hz of simulated time
+        # Exactly 50 Hz of simulated time (the rate rule itself: tests/control/test_trajectory_core.py).
+        assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=1e-6)
         # Compared at rest: a finger still on its way from an earlier goal moves between the two messages.
         positions = _at_rest(ros, list(first.joint_names))
         latest = state.fresh()
@@ -564,7 +567,7 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
 def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[str, Any]) -> None:
     from actionlib_msgs.msg import GoalStatus
 
-    from svhdesc.ros.messages import controller_manager_msgs
+    from svhdesc.ros1.messages import controller_manager_msgs
 
     rospy, cm = ros["rospy"], controller_manager_msgs()
     listing = rospy.ServiceProxy("/controller_manager/list_controllers", cm.ListControllers)
@@ -579,8 +582,8 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
         "joint_state_controller": "running",
         HAND: "running",
         ARM: "running",
-        "pos_joint_traj_controller": "stopped",
-        "joint_group_vel_controller": "stopped",
+        "pos_joint_traj_controller": "initialized",
+        "joint_group_vel_controller": "initialized",
     }
     claimed = {c.name: c.claimed_resources[0].resources for c in listing().controller}
     assert len(claimed[ARM]) == 6 and claimed[ARM] == claimed["pos_joint_traj_controller"]
@@ -590,6 +593,9 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
     assert not switch(["pos_joint_traj_controller"], [], best, False, 0.0).ok
     assert not switch(["pos_joint_traj_controller"], ["no_such_controller"], strict, False, 0.0).ok
     assert states()[ARM] == "running"
+    # ros_control 0.20 refuses starting and stopping one controller in one request (seeded fault: the
+    # former manager answered ok).
+    assert not switch([ARM], [ARM], best, False, 0.0).ok and states()[ARM] == "running"
     assert switch(["pos_joint_traj_controller"], [ARM, "no_such_controller"], best, False, 0.0).ok
     try:
         assert states()[ARM] == "stopped" and states()["pos_joint_traj_controller"] == "running"
