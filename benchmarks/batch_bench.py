@@ -31,6 +31,9 @@ import mujoco  # noqa: E402
 
 import svhdesc  # noqa: E402
 
+sys.path.insert(0, str(REPO / "benchmarks"))
+from results import write  # noqa: E402
+
 
 def targets(model: mujoco.MjModel, nworld: int, grasp: bool) -> np.ndarray:
     if grasp:  # every world closes on its object: the power keyframe's servo targets
@@ -128,20 +131,34 @@ def main() -> None:
     model = scene(args.variant, args.grasp)
     reference = mujoco_c_rate(model, args.grasp, 2000)
     what = "closing the power grasp on its object" if args.grasp else "random servo targets"
-    print(f"{args.variant}, {what}, on {args.device} ({name}), {os.cpu_count()} cores; {steps} steps timed per row")
-    print(f"MuJoCo C, one thread, same scene: {reference:,.0f} steps/s")
-    print(f"{'nworld':>7} {'world-steps/s':>14} {'x MuJoCo C':>11}")
-    nworld = 1
+    lines = [
+        f"{args.variant}, {what}, on {args.device} ({name}); {steps} steps timed per row",
+        "",
+        f"MuJoCo C, one thread, same scene: {reference:,.0f} steps/s",
+        "",
+        "| nworld | world-steps/s | x MuJoCo C |",
+        "|---|---|---|",
+    ]
+    for line in lines:
+        print(line)
+    rate, nworld = 0.0, 1
     while nworld <= largest:
         try:
             rate = warp_rate(model, args.grasp, nworld, args.device, steps)
         except (RuntimeError, MemoryError) as error:  # Warp's allocation failure: the previous row was the largest
-            print(f"{nworld:>7} does not fit on {name}: {(str(error) or type(error).__name__).splitlines()[0]}")
+            lines.append(f"| {nworld} | does not fit: {(str(error) or type(error).__name__).splitlines()[0]} | |")
+            print(lines[-1])
             break
-        print(f"{nworld:>7} {rate:>14,.0f} {rate / reference:>11.2f}", flush=True)
+        lines.append(f"| {nworld} | {rate:,.0f} | {rate / reference:.2f} |")
+        print(lines[-1], flush=True)
         nworld *= 4
     if gpu:
-        print(f"goal: 1,000,000 world-steps/s at 4096 worlds ({'met' if rate >= 1e6 else 'not met'})")
+        lines += ["", f"goal: 1,000,000 world-steps/s ({'met' if rate >= 1e6 else 'not met'} at the largest row)"]
+        print(lines[-1])
+    device = "gpu" if gpu else "cpu"
+    kind = "_grasp" if args.grasp else ""
+    path = write(f"batch_{args.variant}_{device}{kind}", f"Batch (MuJoCo Warp): {args.variant} on {device}", lines)
+    print(f"wrote {path.relative_to(REPO)}")
 
 
 if __name__ == "__main__":
