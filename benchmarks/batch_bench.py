@@ -3,6 +3,7 @@
     python benchmarks/batch_bench.py                         # CPU device, nworld 1..256
     python benchmarks/batch_bench.py --device cuda           # a GPU, nworld 1..4096
     python benchmarks/batch_bench.py --max-nworld 4096       # more worlds on the CPU too (slow)
+    python benchmarks/batch_bench.py --device cuda --grasp --max-nworld 65536   # contact-rich, until it no longer fits
 
 Every world starts at keyframe home and is driven towards its own random servo targets (fixed seed) for
 --steps physics steps after a warm-up call (which compiles Warp's kernels, cached in .cache/warp, and on a
@@ -29,35 +30,86 @@ os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
 import mujoco  # noqa: E402
 
 import svhdesc  # noqa: E402
-from svhdesc.batch import make  # noqa: E402
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+from results import write  # noqa: E402
 
 
-def targets(model: mujoco.MjModel, nworld: int) -> np.ndarray:
+def targets(model: mujoco.MjModel, nworld: int, grasp: bool) -> np.ndarray:
+    if grasp:  # every world closes on its object: the power keyframe's servo targets
+        return np.tile(model.key("power").ctrl, (nworld, 1))
     low, high = model.actuator_ctrlrange.T
     return np.random.default_rng(0).uniform(low, high, (nworld, model.nu))
 
 
-def mujoco_c_rate(variant: str, steps: int) -> float:
-    model = mujoco.MjModel.from_xml_path(str(svhdesc.get(variant).batch_scene_path))
+def scene(variant: str, grasp: bool) -> mujoco.MjModel:
+    """The variant's batch scene; with ``grasp``, the `power` grasp's object welded in the open hand (as the
+    grasps check places it, config/svhdesc.yaml), so every world closes its fingers on it."""
+    path = svhdesc.get(variant).batch_scene_path
+    if not grasp:
+        return mujoco.MjModel.from_xml_path(str(path))
+    import yaml
+
+    from svhdesc.validate import grasps
+    from svhdesc.validate.handsim import find_hand
+
+    config = yaml.safe_load((REPO / "config" / "svhdesc.yaml").read_text())["grasps"]["power"]
+    model = mujoco.MjModel.from_xml_path(str(path))
+    hand = find_hand(model)
+    placement, _ = grasps._placement(model, hand, config)
+    return grasps._scene(path, config, placement, f"{hand.prefix}_base_link").compile()
+
+
+def start_key(grasp: bool) -> str:
+    return "open" if grasp else "home"
+
+
+def mujoco_c_rate(model: mujoco.MjModel, grasp: bool, steps: int) -> float:
     data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    data.ctrl[:] = targets(model, 1)[0]
+    mujoco.mj_resetDataKeyframe(model, data, model.key(start_key(grasp)).id)
+    data.ctrl[:] = targets(model, 1, grasp)[0]
     start = time.perf_counter()
     for _ in range(steps):
         mujoco.mj_step(model, data)
     return steps / (time.perf_counter() - start)
 
 
-def warp_rate(variant: str, nworld: int, device: str, steps: int) -> float:
-    env = make(variant, nworld=nworld, device=device)
-    env.reset("home")
-    ctrl = targets(env.mjm, nworld)
+def warp_rate(model: mujoco.MjModel, grasp: bool, nworld: int, device: str, steps: int) -> float:
+    from svhdesc.batch.env import BatchEnv  # after quiet_init: importing it would start Warp with its banner
+
+    env = BatchEnv(model, nworld=nworld, device=device)
+    env.reset(start_key(grasp))
+    ctrl = targets(model, nworld, grasp)
     for _ in range(2):  # warm-up: kernels compiled (first call), on a GPU the step graph captured (second)
         env.step(ctrl, nstep=steps)
-    env.reset("home")
+    env.reset(start_key(grasp))
     start = time.perf_counter()
     env.step(ctrl, nstep=steps)  # ends with the overflow check, which waits for the device
     return nworld * steps / (time.perf_counter() - start)
+
+
+def quiet_init(device: str) -> str:
+    """Start Warp without its banner or its native 'no CUDA driver' warning; the device's name, or exit 2."""
+    import warp as wp
+
+    wp.config.quiet = True
+    sys.stdout.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    with open(os.devnull, "w") as null:
+        for fd in saved:
+            os.dup2(null.fileno(), fd)
+        try:
+            wp.init()
+        finally:
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+    if not device.startswith("cuda"):
+        return f"{platform.processor() or platform.machine()} CPU"
+    if not wp.is_cuda_available():
+        print(f"error: --device {device}: no CUDA GPU on this machine (Warp finds no driver)", file=sys.stderr)
+        raise SystemExit(2)
+    return wp.get_device(device).name
 
 
 def main() -> None:
@@ -68,26 +120,45 @@ def main() -> None:
     parser.add_argument(
         "--steps", type=int, default=None, help="physics steps timed per nworld (default 100 cpu, 1000 cuda)"
     )
+    parser.add_argument(
+        "--grasp", action="store_true", help="contact-rich: every world closes the power grasp on its object"
+    )
     args = parser.parse_args()
     gpu = args.device.startswith("cuda")
     largest = args.max_nworld or (4096 if gpu else 256)
     steps = args.steps or (1000 if gpu else 100)
-    import warp as wp
-
-    wp.config.quiet = True
-    wp.init()
-    name = wp.get_device(args.device).name if gpu else f"{platform.processor() or platform.machine()} CPU"
-    reference = mujoco_c_rate(args.variant, 2000)
-    print(f"{args.variant} on {args.device} ({name}), {os.cpu_count()} cores; {steps} steps timed per row")
-    print(f"MuJoCo C, one thread, same scene: {reference:,.0f} steps/s")
-    print(f"{'nworld':>7} {'world-steps/s':>14} {'x MuJoCo C':>11}")
-    nworld = 1
+    name = quiet_init(args.device)
+    model = scene(args.variant, args.grasp)
+    reference = mujoco_c_rate(model, args.grasp, 2000)
+    what = "closing the power grasp on its object" if args.grasp else "random servo targets"
+    lines = [
+        f"{args.variant}, {what}, on {args.device} ({name}); {steps} steps timed per row",
+        "",
+        f"MuJoCo C, one thread, same scene: {reference:,.0f} steps/s",
+        "",
+        "| nworld | world-steps/s | x MuJoCo C |",
+        "|---|---|---|",
+    ]
+    for line in lines:
+        print(line)
+    rate, nworld = 0.0, 1
     while nworld <= largest:
-        rate = warp_rate(args.variant, nworld, args.device, steps)
-        print(f"{nworld:>7} {rate:>14,.0f} {rate / reference:>11.2f}", flush=True)
+        try:
+            rate = warp_rate(model, args.grasp, nworld, args.device, steps)
+        except (RuntimeError, MemoryError) as error:  # Warp's allocation failure: the previous row was the largest
+            lines.append(f"| {nworld} | does not fit: {(str(error) or type(error).__name__).splitlines()[0]} | |")
+            print(lines[-1])
+            break
+        lines.append(f"| {nworld} | {rate:,.0f} | {rate / reference:.2f} |")
+        print(lines[-1], flush=True)
         nworld *= 4
     if gpu:
-        print(f"goal: 1,000,000 world-steps/s at 4096 worlds ({'met' if rate >= 1e6 else 'not met'})")
+        lines += ["", f"goal: 1,000,000 world-steps/s ({'met' if rate >= 1e6 else 'not met'} at the largest row)"]
+        print(lines[-1])
+    device = "gpu" if gpu else "cpu"
+    kind = "_grasp" if args.grasp else ""
+    path = write(f"batch_{args.variant}_{device}{kind}", f"Batch (MuJoCo Warp): {args.variant} on {device}", lines)
+    print(f"wrote {path.relative_to(REPO)}")
 
 
 if __name__ == "__main__":

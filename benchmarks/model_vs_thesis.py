@@ -1,0 +1,171 @@
+"""The shipped ur5_svh_right against the thesis' model (../shared/peers seed_svh_ur5_mujoco), in one run.
+
+    python benchmarks/model_vs_thesis.py
+
+(1) Ratio at the `test` keyframe: both models in the same scene (bench.py's: the index fingertip pressed
+    2 mm into a table), realtime factor at each model's own timestep, median of 3 alternating trials.
+    Goal (issue 25): >= 2.0x.
+(2) Contact-rich figures of the shipped model: at rest (the table scene above), holding the `power` grasp
+    (closed on its cylinder as `svhdesc validate`'s grasps check does), and all fingers moving (every hand
+    channel on its own sine across its range, no object).
+(3) Where a step's time goes in each: MjData.timer (collision broadphase, narrowphase = mid- and
+    narrowphase, constraint solve, the rest), per step.
+Writes docs/results/model_speed.md. Not a test: machines are noisy; the ratio is measured in one run.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+from bench import contact_scene, peer_spec  # noqa: E402
+from results import write  # noqa: E402
+
+from svhdesc.validate import grasps  # noqa: E402
+from svhdesc.validate.handsim import find_hand  # noqa: E402
+
+VARIANT = "ur5_svh_right"
+MJCF = REPO / "generated" / VARIANT / f"{VARIANT}.xml"
+SETTLE_STEPS = 500
+TIMED_SECONDS = 3.0  # simulated seconds per trial
+TRIALS = 3
+GOAL = 2.0
+T = mujoco.mjtTimer
+PHASES = (
+    ("broadphase", T.mjTIMER_COL_BROAD),
+    ("narrowphase", T.mjTIMER_COL_NARROW),
+    ("constraint", T.mjTIMER_CONSTRAINT),
+)
+
+
+def run(model: mujoco.MjModel, data: mujoco.MjData, steps: int, drive=None) -> float:
+    """Seconds of wall time for ``steps`` mj_steps (``drive(data)`` before each, when given)."""
+    start = time.perf_counter()
+    for _ in range(steps):
+        if drive is not None:
+            drive(data)
+        mujoco.mj_step(model, data)
+    return time.perf_counter() - start
+
+
+def rtf(model: mujoco.MjModel, data: mujoco.MjData, drive=None) -> float:
+    steps = round(TIMED_SECONDS / model.opt.timestep)
+    return steps * model.opt.timestep / run(model, data, steps, drive)
+
+
+def profile(model: mujoco.MjModel, data: mujoco.MjData, drive=None) -> dict[str, float]:
+    """Microseconds per step: the whole step and its phases (MjData.timer), mean contacts and constraints."""
+    run(model, data, SETTLE_STEPS, drive)
+    for timer in data.timer:
+        timer.duration, timer.number = 0.0, 0
+    steps = round(TIMED_SECONDS / model.opt.timestep)
+    ncon = nefc = 0
+    start = time.perf_counter()
+    for _ in range(steps):
+        if drive is not None:
+            drive(data)
+        mujoco.mj_step(model, data)
+        ncon, nefc = ncon + data.ncon, nefc + data.nefc
+    wall = time.perf_counter() - start
+    per = {name: 1e6 * data.timer[phase].duration / steps for name, phase in PHASES}
+    per["step"] = 1e6 * data.timer[T.mjTIMER_STEP].duration / steps
+    per["wall"] = 1e6 * wall / steps
+    per["rtf"] = model.opt.timestep * steps / wall
+    per["ncon"], per["nefc"] = ncon / steps, nefc / steps
+    return per
+
+
+def test_pose(spec: mujoco.MjSpec) -> dict[str, float]:
+    probe = spec.compile()
+    key = probe.key("test")
+    return {probe.joint(j).name: float(key.qpos[probe.jnt_qposadr[j]]) for j in range(probe.njnt)}
+
+
+def power_grasp() -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The shipped model holding the `power` grasp's cylinder, closed as the grasps check closes it."""
+    grasp = dict(yaml.safe_load((REPO / "config" / "svhdesc.yaml").read_text())["grasps"]["power"])
+    base = mujoco.MjModel.from_xml_path(str(MJCF))
+    hand = find_hand(base)
+    placement, _ = grasps._placement(base, hand, grasp)
+    sim = grasps._GraspSim.welded(grasps._scene(MJCF, grasp, placement, f"{hand.prefix}_base_link"), hand)
+    sim.close(grasps._key_targets(sim.model, hand, "power"))
+    sim.release()
+    return sim.model, sim.data
+
+
+def fingers_moving() -> tuple[mujoco.MjModel, mujoco.MjData, object]:
+    """The shipped model at `test`, every hand channel on its own sine (periods 0.7-1.5 s) across its range."""
+    model = mujoco.MjModel.from_xml_path(str(MJCF))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("test").id)
+    hand = find_hand(model)
+    channels = np.array(sorted(hand.actuators.values()))
+    low, high = model.actuator_ctrlrange[channels].T
+    periods = np.linspace(0.7, 1.5, len(channels))
+    data.ctrl[:] = data.qpos[model.jnt_qposadr[model.actuator_trnid[:, 0]]]
+
+    def drive(d: mujoco.MjData) -> None:
+        phase = 0.5 - 0.5 * np.cos(2 * np.pi * d.time / periods)
+        d.ctrl[channels] = low + (high - low) * phase
+
+    return model, data, drive
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory(prefix="svhdesc-mvt-") as tmp:
+        ours_spec = mujoco.MjSpec.from_file(str(MJCF))
+        pose = test_pose(ours_spec)
+        ours = contact_scene(ours_spec, pose)
+        thesis = contact_scene(peer_spec(Path(tmp)), pose)
+    for model, data in (ours, thesis):
+        run(model, data, SETTLE_STEPS)
+    trials = [(rtf(*ours), rtf(*thesis)) for _ in range(TRIALS)]
+    ratios = [a / b for a, b in trials]
+    ratio = statistics.median(ratios)
+    moving = fingers_moving()
+    scenes = {
+        "rest (test pose, tip on table)": profile(*ours),
+        "power grasp held": profile(*power_grasp()),
+        "all fingers moving": profile(*moving),
+        "thesis model, rest (same table)": profile(*thesis),
+    }
+    body = [
+        "The machine was loaded (2 cores shared by several agents): absolute figures are noisy; the ratio is",
+        "measured in one run, alternating the two models, which is robust to load.",
+        "",
+        f"## ur5_svh_right / thesis model at `test`, median of {TRIALS}",
+        "",
+        "| trial | ur5_svh_right RTF | thesis RTF | ratio |",
+        "|---|---|---|---|",
+        *[f"| {i + 1} | {a:.2f}x | {b:.2f}x | {a / b:.2f} |" for i, (a, b) in enumerate(trials)],
+        f"| **median** | | | **{ratio:.2f}** (goal >= {GOAL}: {'met' if ratio >= GOAL else 'NOT met'}) |",
+        "",
+        "## Contact-rich figures and where a step's time goes (MjData.timer, microseconds per step)",
+        "",
+        "| scene | RTF | step | broadphase | narrowphase | constraint | other | contacts | constraint rows |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, p in scenes.items():
+        other = p["step"] - p["broadphase"] - p["narrowphase"] - p["constraint"]
+        body.append(
+            f"| {name} | {p['rtf']:.2f}x | {p['step']:.1f} | {p['broadphase']:.1f} | {p['narrowphase']:.1f} "
+            f"| {p['constraint']:.1f} | {other:.1f} | {p['ncon']:.1f} | {p['nefc']:.0f} |"
+        )
+    path = write("model_speed", "Model speed: ur5_svh_right against the thesis' model", body)
+    print("\n".join(body))
+    print(f"wrote {path.relative_to(REPO)}")
+
+
+if __name__ == "__main__":
+    main()
