@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 import svhdesc  # noqa: E402
-from svhdesc.ros.system import import_ros  # noqa: E402
+from svhdesc.ros1.system import import_ros  # noqa: E402
 from tests.rosmaster import master, stop, wait_for  # noqa: E402
 
 TRACK = {"svh_right": "right_hand_t", "svh_left": "left_hand_t", "ur5_svh_right": "tool0"}
@@ -46,7 +46,7 @@ def node_rate(variant: str, window: float, rospy: object) -> float:
     from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
     from rospy import AnyMsg  # type: ignore[import-not-found]
 
-    from svhdesc.ros.messages import control_msgs
+    from svhdesc.ros1.messages import control_msgs
     from svhdesc.sim import Simulation
 
     info = Simulation(variant).info

@@ -115,7 +115,7 @@ class PickAndPlace:
         import actionlib
         from trajectory_msgs.msg import JointTrajectoryPoint
 
-        from svhdesc.ros.messages import control_msgs
+        from svhdesc.ros1.messages import control_msgs
 
         msgs = control_msgs()
         client = actionlib.SimpleActionClient(f"/{HAND}/follow_joint_trajectory", msgs.FollowJointTrajectoryAction)

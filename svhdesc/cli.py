@@ -25,8 +25,13 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with warnings.catch_warnings(record=True) as caught:
+        # Each warning is echoed as it comes, never kept: a long-running command (the ROS node, whose
+        # rospy warns on every /clock message) must not grow with them. Deprecations are not shown.
+        with warnings.catch_warnings():
             warnings.simplefilter("always")
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
+            warnings.showwarning = _echo_warning
             try:
                 result = func(*args, **kwargs)
             except SvhdescError as exc:
@@ -42,13 +47,13 @@ def _friendly(func: Callable[..., Any]) -> Callable[..., Any]:
                 _error(f"{exc.filename or 'file system'}: {exc.strerror or exc}")
             except UnicodeDecodeError as exc:
                 _error(f"input is not UTF-8 text ({exc.reason} at byte {exc.start})")
-            finally:
-                for warning in caught:
-                    if not issubclass(warning.category, (DeprecationWarning, PendingDeprecationWarning)):
-                        click.echo(f"warning: {warning.message}", err=True)
         return result
 
     return wrapper
+
+
+def _echo_warning(message: Any, category: Any, *_: Any, **__: Any) -> None:
+    click.echo(f"warning: {message}", err=True)
 
 
 def _error(message: str) -> None:
@@ -666,7 +671,7 @@ def sim_command(
 
     objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros:
-        from svhdesc.ros.node import run_node
+        from svhdesc.ros1.node import run_node
 
         run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return

@@ -120,3 +120,33 @@ def test_vendor_description_builds_with_this_projects_spec(vendor_build: tuple[P
     out, result = vendor_build
     assert "right_hand_j15" in result.stderr and "limit widened" in result.stderr  # type: ignore[attr-defined]
     assert (out / "svh_vendor_right" / "svh_vendor_right.xml").is_file()
+
+
+def test_a_long_command_does_not_keep_its_warnings(capfd: pytest.CaptureFixture[str]) -> None:
+    """The ROS node runs inside the CLI's wrapper while rospy warns on every /clock message: memory must
+    stay flat over many warnings, each still echoed once. Seeded fault: the former
+    ``catch_warnings(record=True)`` keeps every warning (8 MB over the second 10,000 here)."""
+    import tracemalloc
+    import warnings
+
+    from svhdesc.cli import _friendly
+
+    def warn(count: int) -> None:
+        for index in range(count):
+            warnings.warn(f"clock message {index}", UserWarning, stacklevel=1)
+            warnings.warn(f"deprecated {index}", DeprecationWarning, stacklevel=1)
+
+    def command() -> int:
+        warn(10_000)
+        before = tracemalloc.get_traced_memory()[0]
+        warn(10_000)
+        return tracemalloc.get_traced_memory()[0] - before
+
+    tracemalloc.start()
+    try:
+        growth = _friendly(command)()
+    finally:
+        tracemalloc.stop()
+    err = capfd.readouterr().err
+    assert growth < 200_000, f"{growth} bytes kept over 10,000 warnings"
+    assert err.count("warning: clock message") == 20_000 and "deprecated" not in err

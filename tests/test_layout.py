@@ -20,7 +20,7 @@ import pytest
 from tests.support import REPO
 
 PACKAGE = REPO / "svhdesc"
-RUNTIME = ("loaders", "sim", "ros", "plan", "compare", "wireloop", "batch", "validate")
+RUNTIME = ("loaders", "sim", "ros1", "control", "plan", "compare", "wireloop", "batch", "validate")
 COMPILER_BRIDGES = {"svhdesc.model", "svhdesc.cli"}
 COUPLING_HOMES = {"svhdesc.model", "svhdesc.ir"}
 MAX_ROOT_MODULES = 10
@@ -122,7 +122,7 @@ def test_every_runtime_package_exists() -> None:
     [
         ("from svhdesc.compiler.settings.config import load_config\n", "svhdesc.validate.pair", "imports the compiler"),
         ("import svhdesc.compiler.source.xacro\n", "svhdesc.sim.robot", "imports the compiler"),
-        ("def f():\n    from svhdesc.compiler import exact\n", "svhdesc.ros.node", "imports the compiler"),
+        ("def f():\n    from svhdesc.compiler import exact\n", "svhdesc.ros1.node", "imports the compiler"),
         ("from ..compiler.build import manifest\n", "svhdesc.validate.pair", "imports the compiler"),
         ("from svhdesc.validate.render import _write_png\n", "svhdesc.wireloop.mujoco_run", "private _write_png"),
         (
@@ -146,7 +146,7 @@ def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -
         ("from svhdesc.compiler.build import builder\n", "svhdesc.cli"),
         ("from svhdesc.compiler.decompose.cache import _entry_meta\n", "svhdesc.compiler.decompose.pool"),
         ("from svhdesc.loaders._common import couplings\n", "svhdesc.loaders.dart"),
-        ("from svhdesc.sim import Simulation\n", "svhdesc.ros.node"),
+        ("from svhdesc.sim import Simulation\n", "svhdesc.ros1.node"),
         ("from svhdesc.extras import require as _require\n", "svhdesc.loaders._common"),
         ("class Coupling:\n    pass\n", "svhdesc.ir"),
     ],

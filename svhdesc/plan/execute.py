@@ -34,7 +34,7 @@ class Execution:
 
 def ros_node() -> Any:
     """rospy, with this process registered as a node (once)."""
-    from svhdesc.ros.system import import_ros
+    from svhdesc.ros1.system import import_ros
 
     rospy = import_ros()
     import rosgraph
@@ -60,7 +60,7 @@ def execute(plan: Plan, config: MoveItConfig, timeout: float = 120.0) -> Executi
     rospy = ros_node()
     import actionlib
 
-    from svhdesc.ros.messages import control_msgs
+    from svhdesc.ros1.messages import control_msgs
 
     msgs = control_msgs()
     chosen = [c for c in config.controllers if set(c.joints) & set(plan.joint_names)]

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from svhdesc.ros.system import ros_available
+from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, stop, svhdesc_executable, wait_for
 from tests.support import REPO
 
@@ -27,7 +27,7 @@ EXAMPLE = REPO / "examples" / "pick_and_place.py"
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
-    from svhdesc.ros.system import import_ros
+    from svhdesc.ros1.system import import_ros
 
     import_ros()
     import rosgraph

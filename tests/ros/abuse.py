@@ -19,8 +19,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from svhdesc.ros.messages import control_msgs  # noqa: E402
-from svhdesc.ros.system import import_ros  # noqa: E402
+from svhdesc.ros1.messages import control_msgs  # noqa: E402
+from svhdesc.ros1.system import import_ros  # noqa: E402
 from tests.rosmaster import simple_action_client, wait_for  # noqa: E402
 
 HAND = "right_hand_controller"
@@ -183,8 +183,8 @@ def flood(node: dict[str, Any]) -> None:
 
 KILLED_CLIENT = """
 import sys, time
-from svhdesc.ros.system import import_ros
-from svhdesc.ros.messages import control_msgs
+from svhdesc.ros1.system import import_ros
+from svhdesc.ros1.messages import control_msgs
 rospy = import_ros()
 import actionlib
 from trajectory_msgs.msg import JointTrajectoryPoint

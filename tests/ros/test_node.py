@@ -20,7 +20,7 @@ import pytest
 import yaml
 
 import svhdesc
-from svhdesc.ros.system import ros_available
+from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
 
@@ -57,8 +57,8 @@ class Latest:
 
 @pytest.fixture(scope="module")
 def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
-    from svhdesc.ros.messages import control_msgs
-    from svhdesc.ros.system import import_ros
+    from svhdesc.ros1.messages import control_msgs
+    from svhdesc.ros1.system import import_ros
 
     rospy = import_ros()
     home = tmp_path_factory.mktemp("roshome")
@@ -149,7 +149,7 @@ def _at_rest(
 
 
 def test_goal_message_md5_matches_a_real_ros_system() -> None:
-    from svhdesc.ros.messages import control_msgs
+    from svhdesc.ros1.messages import control_msgs
 
     msgs = control_msgs()
     assert msgs.FollowJointTrajectoryActionGoal._md5sum == GOAL_MD5
@@ -350,7 +350,7 @@ def test_clock_tracked_pose_and_fingertip_wrench(ros: dict[str, Any]) -> None:
 def test_tf_from_robot_state_publisher_covers_every_frame(ros: dict[str, Any]) -> None:
     from lxml import etree
 
-    from svhdesc.ros.messages import dynamic_class
+    from svhdesc.ros1.messages import dynamic_class
 
     rospy = ros["rospy"]
     tf_message = dynamic_class("tf2_msgs/TFMessage", "geometry_msgs/TransformStamped[] transforms\n")
@@ -411,7 +411,7 @@ def test_missing_ros_names_the_apt_packages() -> None:
     """Run where the venv cannot see Debian's dist-packages (pointed elsewhere): one clear error."""
     code = (
         "import sys\n"
-        "import svhdesc.ros.system as system\n"
+        "import svhdesc.ros1.system as system\n"
         "system.DIST_PACKAGES = '/nonexistent'\n"
         "sys.path = [p for p in sys.path if 'dist-packages' not in p]\n"
         "try:\n"
@@ -466,7 +466,7 @@ def test_generated_message_md5sums_equal_noetic() -> None:
     rebuilt here agrees with genpy's own hash of FollowJointTrajectoryGoal."""
     import hashlib
 
-    from svhdesc.ros.messages import _own_definitions, control_msgs, controller_manager_msgs, md5_text
+    from svhdesc.ros1.messages import _own_definitions, control_msgs, controller_manager_msgs, md5_text
 
     msgs, manager = control_msgs(), controller_manager_msgs()
     assert manager.SwitchController._md5sum == "b29a7abc673b2c54c14b54e50f8d06a5"
@@ -564,7 +564,7 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
 def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[str, Any]) -> None:
     from actionlib_msgs.msg import GoalStatus
 
-    from svhdesc.ros.messages import controller_manager_msgs
+    from svhdesc.ros1.messages import controller_manager_msgs
 
     rospy, cm = ros["rospy"], controller_manager_msgs()
     listing = rospy.ServiceProxy("/controller_manager/list_controllers", cm.ListControllers)

@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from svhdesc.ros.system import ros_available
+from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, stop, svhdesc_executable, wait_for
 from tests.support import TESTS
 
@@ -47,7 +47,7 @@ def abuse(node: dict[str, Any], check: str) -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def node(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
-    from svhdesc.ros.system import import_ros
+    from svhdesc.ros1.system import import_ros
 
     import_ros()
     import rosgraph

@@ -185,7 +185,7 @@ def test_passive_viewer_under_xvfb() -> None:
 def test_connector_file_matches_the_model(variant: str) -> None:
     """One entry per actuated joint, each topic its own (the thesis' file misspelt one), the servo's gains."""
     import svhdesc
-    from svhdesc.ros.connector import load_connector
+    from svhdesc.ros1.connector import load_connector
 
     joints = load_connector(svhdesc.get(variant).directory / "config" / "connector.yaml")
     sim = Simulation(variant)
@@ -198,7 +198,7 @@ def test_connector_file_matches_the_model(variant: str) -> None:
 
 
 def test_bad_connector_files_name_the_culprit(tmp_path: Path) -> None:
-    from svhdesc.ros.connector import load_connector
+    from svhdesc.ros1.connector import load_connector
 
     path = tmp_path / "connector.yaml"
     for text, culprit in (

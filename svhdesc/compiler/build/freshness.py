@@ -42,7 +42,7 @@ def fingerprint_of(package: Path) -> str:
     return digest.hexdigest()
 
 
-RUNTIME = {"validate", "loaders", "sim", "ros", "plan", "compare", "wireloop", "batch"}
+RUNTIME = {"validate", "loaders", "sim", "ros1", "ros2", "control", "plan", "compare", "wireloop", "batch"}
 FRONT = {"cli.py", "__init__.py", "extras.py", "paths.py", "offscreen.py"}
 
 

@@ -13,7 +13,7 @@ from lxml import etree
 
 import svhdesc
 from svhdesc.compiler.settings.config import load_config
-from svhdesc.ros.system import ros_available
+from svhdesc.ros1.system import ros_available
 from tests.support import REPO, VARIANTS
 
 mujoco = pytest.importorskip("mujoco")

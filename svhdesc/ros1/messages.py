@@ -15,7 +15,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from svhdesc.ros.system import import_ros
+from svhdesc.ros1.system import import_ros
 
 PACKAGE = "control_msgs"
 DEFINITIONS = Path(__file__).resolve().parent / "definitions"
@@ -165,17 +165,30 @@ def _service(package: str, name: str, text: str, own: dict[str, str]) -> type:
     return service
 
 
+def real_package(package: str, probe: str) -> SimpleNamespace | None:
+    """An installed ROS 1 package's ``msg`` and ``srv`` classes in one namespace, or None when it is
+    absent or not genpy's (a ROS 2 package of the same name has no ``_md5sum``). Only public names are
+    merged: both modules have ``__name__`` and the like."""
+    try:
+        modules = [importlib.import_module(f"{package}.{kind}") for kind in ("msg", "srv")]
+    except ImportError:
+        return None
+    if not hasattr(getattr(modules[0], probe, None), "_md5sum"):
+        return None
+    names: dict[str, Any] = {}
+    for module in modules:
+        names.update({k: v for k, v in vars(module).items() if not k.startswith("_")})
+    return SimpleNamespace(**names)
+
+
 @functools.cache
 def control_msgs() -> Any:
     """A namespace like ``control_msgs.msg`` + ``control_msgs.srv``: the real packages when
     installed, else generated."""
     import_ros()
-    try:
-        module = importlib.import_module("control_msgs.msg")
-        services = importlib.import_module("control_msgs.srv")
-        return SimpleNamespace(**vars(module), **{k: v for k, v in vars(services).items() if "Query" in k})
-    except ImportError:
-        pass
+    real = real_package("control_msgs", "FollowJointTrajectoryAction")
+    if real is not None:
+        return real
     from genpy.dynamic import generate_dynamic
 
     classes = {}
@@ -205,12 +218,9 @@ def controller_manager_msgs() -> Any:
     ListControllerTypes, SwitchController (the real package when installed, else generated)."""
     import_ros()
     names = ("ListControllers", "ListControllerTypes", "SwitchController")
-    try:
-        messages = importlib.import_module(f"{MANAGER_PACKAGE}.msg")
-        services = importlib.import_module(f"{MANAGER_PACKAGE}.srv")
-        return SimpleNamespace(**vars(messages), **vars(services))
-    except ImportError:
-        pass
+    real = real_package(MANAGER_PACKAGE, "ControllerState")
+    if real is not None:
+        return real
     folder = DEFINITIONS / MANAGER_PACKAGE
     own = {
         f"{MANAGER_PACKAGE}/{n}": _strip_comments((folder / f"{n}.msg").read_text())

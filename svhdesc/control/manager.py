@@ -1,21 +1,17 @@
-"""``/controller_manager``: list_controllers, list_controller_types and switch_controller as
-ros_control's controller_manager serves them, over the controllers the real drivers load.
+"""ros_control's controller_manager on plain values: the loaded controllers, their states and
+ControllerManager::switchController (noetic).
 
-Switching follows ControllerManager::switchController (noetic): strictness 0 means BEST_EFFORT; under
-STRICT an unknown name, starting a running controller, stopping a stopped one or a resource claimed
-twice fails the whole request (ok = False, nothing changes); under BEST_EFFORT those entries are
-dropped and the rest switch. Stopping a trajectory controller preempts its goal and holds the joints;
-joint_state_controller cannot be switched (it is always on here).
+Strictness 0 means BEST_EFFORT; under STRICT an unknown name, starting a running controller, stopping a
+stopped one or a resource claimed twice fails the whole request (nothing changes); under BEST_EFFORT
+those entries are dropped and the rest switch. Stopping a trajectory controller preempts its goal and
+holds the joints; joint_state_controller cannot be switched (it is always on here).
 """
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
-
-from svhdesc.ros.controller import on_sim_thread
 
 BASE_CLASS = "controller_interface::ControllerBase"
 BEST_EFFORT, STRICT = 1, 2
@@ -31,52 +27,36 @@ class Loaded:
     controller: Any = None  # with starting()/stopping(); None: always on (joint_state_controller)
 
 
-class ControllerManager:
-    def __init__(self, controllers: list[Loaded], queue: deque) -> None:
-        import rospy
+@dataclass(frozen=True)
+class ControllerInfo:
+    """One entry of list_controllers."""
 
-        from svhdesc.ros.messages import controller_manager_msgs
+    name: str
+    type: str
+    state: str
+    interface: str
+    resources: list[str]
 
-        self._rospy = rospy
-        self._msgs = controller_manager_msgs()
+
+class SwitchCore:
+    def __init__(self, controllers: list[Loaded], log: Callable[[str, str], None]) -> None:
+        """``log(level, text)``: level 'warn' or 'error'."""
         self.controllers = {c.name: c for c in controllers}
-        self._queue = queue
-        base = "controller_manager"
-        self._services = [
-            rospy.Service(f"{base}/list_controllers", self._msgs.ListControllers, self._on_list),
-            rospy.Service(f"{base}/list_controller_types", self._msgs.ListControllerTypes, self._on_types),
-            rospy.Service(f"{base}/switch_controller", self._msgs.SwitchController, self._on_switch),
+        self._log = log
+
+    def listed(self) -> list[ControllerInfo]:
+        return [
+            ControllerInfo(c.name, c.type, "running" if c.running else "stopped", c.interface, list(c.resources))
+            for c in self.controllers.values()
         ]
 
-    def _on_list(self, _: Any) -> Any:
-        msgs = self._msgs
-        return msgs.ListControllersResponse(
-            controller=[
-                msgs.ControllerState(
-                    name=c.name,
-                    state="running" if c.running else "stopped",
-                    type=c.type,
-                    claimed_resources=[msgs.HardwareInterfaceResources(c.interface, list(c.resources))],
-                )
-                for c in self.controllers.values()
-            ]
-        )
-
-    def _on_types(self, _: Any) -> Any:
-        types = sorted({c.type for c in self.controllers.values()})
-        return self._msgs.ListControllerTypesResponse(types=types, base_classes=[BASE_CLASS] * len(types))
-
-    def _on_switch(self, request: Any) -> Any:
-        answer = on_sim_thread(
-            self._queue,
-            lambda: self.switch(list(request.start_controllers), list(request.stop_controllers), request.strictness),
-        )
-        return self._msgs.SwitchControllerResponse(ok=answer is True)
+    def types(self) -> list[str]:
+        return sorted({c.type for c in self.controllers.values()})
 
     def switch(self, start: list[str], stop: list[str], strictness: int) -> bool | str:
         """Start and stop controllers at once (simulation thread). True, or why not."""
         if strictness == 0:
-            self._rospy.logwarn("Controller Manager: no strictness given; defaulting to BEST_EFFORT")
+            self._log("warn", "Controller Manager: no strictness given; defaulting to BEST_EFFORT")
             strictness = BEST_EFFORT
         strict = strictness == STRICT
         stopping = self._select(stop, lambda c: c.running, "stop", "not running", strict)
@@ -97,7 +77,7 @@ class ControllerManager:
         return True
 
     def _refuse(self, why: str) -> str:
-        self._rospy.logerr(f"Could not switch controllers: {why}")
+        self._log("error", f"Could not switch controllers: {why}")
         return why
 
     def _select(
@@ -112,7 +92,7 @@ class ControllerManager:
                 why = f"cannot {verb} {name!r}: it is {'not loaded' if loaded is None else state}"
                 if strict:
                     return why
-                self._rospy.logwarn(why)
+                self._log("warn", why)
                 continue
             chosen.append(loaded)
         return chosen

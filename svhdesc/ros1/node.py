@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from lxml import etree
 
+from svhdesc.control.goals import Tolerances
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
     ACTION_MONITOR_RATE,
@@ -45,10 +46,9 @@ from svhdesc.model import (
     STATE_PUBLISH_RATE,
     hand_controller,
 )
-from svhdesc.ros.connector import ConnectorJoint, load_connector
-from svhdesc.ros.goals import Tolerances
-from svhdesc.ros.messages import control_msgs
-from svhdesc.ros.system import import_ros
+from svhdesc.ros1.connector import ConnectorJoint, load_connector
+from svhdesc.ros1.messages import control_msgs
+from svhdesc.ros1.system import import_ros
 from svhdesc.sim import Simulation
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
@@ -56,9 +56,9 @@ STATE_INTERFACE = "hardware_interface::JointStateInterface"
 VELOCITY_INTERFACE = "hardware_interface::VelocityJointInterface"
 
 if TYPE_CHECKING:  # annotations only; the node imports them where it builds its controllers
-    from svhdesc.ros.controller import TrajectoryController
-    from svhdesc.ros.manager import Loaded
-    from svhdesc.ros.velocity import VelocityGroupController
+    from svhdesc.ros1.controller import TrajectoryController
+    from svhdesc.ros1.manager import Loaded
+    from svhdesc.ros1.velocity import VelocityGroupController
 
 
 def f3d_sensors(urdf: Path) -> list[tuple[str, str, str]]:
@@ -173,7 +173,7 @@ class SimNode:
         from std_msgs.msg import Float64
 
         import svhdesc
-        from svhdesc.ros.manager import ControllerManager
+        from svhdesc.ros1.manager import ControllerManager
 
         self._rospy = rospy
         self.sim = sim
@@ -202,9 +202,9 @@ class SimNode:
     def _load_controllers(self, rospy: Any, msgs: Any) -> list[Loaded]:
         """The controllers ur5_bringup.launch and the SVH driver load: joint_state_controller, one trajectory
         controller per group (the arm's second one stopped), the arm's velocity group (stopped)."""
-        from svhdesc.ros.controller import TrajectoryController
-        from svhdesc.ros.manager import Loaded
-        from svhdesc.ros.velocity import VelocityGroupController
+        from svhdesc.ros1.controller import TrajectoryController
+        from svhdesc.ros1.manager import Loaded
+        from svhdesc.ros1.velocity import VelocityGroupController
 
         sim, info = self.sim, self.sim.info
         loaded = [Loaded(JOINT_STATE_CONTROLLER, CONTROLLER_TYPES[JOINT_STATE_CONTROLLER], STATE_INTERFACE, [], True)]

@@ -12,20 +12,34 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import IntEnum
 
 from svhdesc.sim.trajectory import Point, validate_points
 
-SUCCESSFUL = 0
-INVALID_GOAL = -1
-INVALID_JOINTS = -2
-OLD_HEADER_TIMESTAMP = -3
-PATH_TOLERANCE_VIOLATED = -4
-GOAL_TOLERANCE_VIOLATED = -5
+
+class ErrorCode(IntEnum):
+    """FollowJointTrajectory's result codes. control_msgs' ROS 1 (1.5) and ROS 2 (4.x, Jazzy) actions give
+    every code the same value, so one enum serves both adapters."""
+
+    SUCCESSFUL = 0
+    INVALID_GOAL = -1
+    INVALID_JOINTS = -2
+    OLD_HEADER_TIMESTAMP = -3
+    PATH_TOLERANCE_VIOLATED = -4
+    GOAL_TOLERANCE_VIOLATED = -5
+
+
+SUCCESSFUL = ErrorCode.SUCCESSFUL
+INVALID_GOAL = ErrorCode.INVALID_GOAL
+INVALID_JOINTS = ErrorCode.INVALID_JOINTS
+OLD_HEADER_TIMESTAMP = ErrorCode.OLD_HEADER_TIMESTAMP
+PATH_TOLERANCE_VIOLATED = ErrorCode.PATH_TOLERANCE_VIOLATED
+GOAL_TOLERANCE_VIOLATED = ErrorCode.GOAL_TOLERANCE_VIOLATED
 
 
 @dataclass(frozen=True)
 class Rejection:
-    code: int
+    code: ErrorCode
     reason: str
 
 

@@ -1,0 +1,319 @@
+"""ros_controllers' JointTrajectoryController on plain values: goal checks, preemption, cancel,
+tolerances, feedback and state, with no transport.
+
+A goal is checked (INVALID_JOINTS, INVALID_GOAL; INVALID_GOAL too while the controller is stopped) and
+rejected, or accepted and preempts the active goal; the active goal aborts on a path tolerance violation
+(the joints then hold where they are) or when the joints are not within the goal tolerances ``goal_time``
+after the end (at once when it is 0); cancel holds the current position. Every call happens on the
+simulation thread; an adapter (ROS 1: svhdesc.ros1.controller) turns messages into ``Goal`` values and
+what the core reports to its ``Sink`` back into messages.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, check_goal
+from svhdesc.errors import SvhdescError
+from svhdesc.sim import Point, Simulation, State
+from svhdesc.sim.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A FollowJointTrajectory goal (or a ``command`` trajectory): ``stamp`` 0 starts it now; tolerances
+    map joint names to the goal's values (0: the controller's default, negative: unchecked)."""
+
+    joint_names: list[str]
+    points: list[Point]
+    stamp: float = 0.0
+    path_position: Mapping[str, float] = field(default_factory=dict)
+    path_velocity: Mapping[str, float] = field(default_factory=dict)
+    goal_position: Mapping[str, float] = field(default_factory=dict)
+    goal_velocity: Mapping[str, float] = field(default_factory=dict)
+    goal_time: float = 0.0
+
+
+class Status(enum.Enum):
+    SUCCEEDED = "succeeded"
+    ABORTED = "aborted"
+    CANCELED = "canceled"  # canceled by the client, or preempted by a newer goal / a stop
+
+
+@dataclass(frozen=True)
+class Result:
+    status: Status
+    code: ErrorCode
+    text: str
+
+
+@dataclass(frozen=True)
+class Sample:
+    """What ``state`` and the action's feedback carry: desired, actual and their difference."""
+
+    stamp: float
+    joints: list[str]
+    desired: State
+    actual_positions: np.ndarray
+    actual_velocities: np.ndarray
+
+    @property
+    def position_error(self) -> np.ndarray:
+        return self.desired.positions - self.actual_positions
+
+    @property
+    def velocity_error(self) -> np.ndarray:
+        return self.desired.velocities - self.actual_velocities
+
+
+class Sink(Protocol):
+    """What a transport does with the core's decisions (``handle`` is the transport's goal handle)."""
+
+    def accepted(self, handle: Any) -> None: ...
+    def rejected(self, handle: Any, rejection: Rejection) -> None: ...
+    def finished(self, handle: Any, result: Result) -> None: ...
+    def feedback(self, handle: Any, sample: Sample) -> None: ...
+    def state(self, sample: Sample) -> None: ...
+    def warn(self, text: str) -> None: ...
+
+
+@dataclass
+class _Active:
+    handle: Any
+    joints: list[str]
+    trajectory: Trajectory
+    tolerances: Tolerances
+
+
+class JointTrajectoryCore:
+    def __init__(
+        self,
+        name: str,
+        joints: Sequence[str],
+        sim: Simulation,
+        sink: Sink,
+        allow_partial: bool,
+        defaults: Tolerances,
+        feedback_period: float = 0.05,
+        state_period: float = 0.02,
+        running: bool = True,
+        reports_velocity: bool = True,
+    ) -> None:
+        self.name = name
+        self.joints = list(joints)
+        self.sink = sink
+        self.defaults = defaults
+        self.running = running
+        self._sim = sim
+        self._allow_partial = allow_partial
+        self._active: _Active | None = None
+        self._feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
+        self._state_period = state_period  # JTC's state_publish_rate
+        self._next_feedback = 0.0
+        self._next_state = 0.0
+        # SCHUNK's SVHRosControlHWInterface never fills its joint velocities: its JTC sees 0 rad/s.
+        self._reports_velocity = reports_velocity
+        self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
+        self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
+        self._limits = {j: sim.limits(j) for j in self.joints}
+
+    @property
+    def active_handle(self) -> Any:
+        return None if self._active is None else self._active.handle
+
+    # -- controller_manager switching ---------------------------------------------------------
+    def starting(self) -> None:
+        """As JTC::starting: hold where the joints are."""
+        self._sim.hold(self.joints)
+        self.running = True
+
+    def stopping(self) -> None:
+        """As JTC::stopping: the active goal is canceled (preempted); the joints hold."""
+        self._preempt("the controller was stopped")
+        self._sim.hold(self.joints)
+        self.running = False
+
+    # -- goals, commands, cancel, queries -----------------------------------------------------
+    def _check(self, goal: Goal) -> Rejection | None:
+        try:
+            return check_goal(
+                goal.joint_names,
+                goal.points,
+                goal.stamp,
+                self._sim.time,
+                self.joints,
+                self._allow_partial,
+                self._limits,
+            )
+        except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
+            return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
+
+    def _start(self, goal: Goal) -> Trajectory | Rejection:
+        try:
+            return self._sim.follow(list(goal.joint_names), goal.points, None if goal.stamp == 0.0 else goal.stamp)
+        except (SvhdescError, TypeError, ValueError) as exc:
+            return Rejection(ErrorCode.INVALID_GOAL, str(exc))
+
+    def _preempt(self, why: str) -> None:
+        if self._active is not None:
+            handle, self._active = self._active.handle, None
+            self.sink.finished(handle, Result(Status.CANCELED, ErrorCode.SUCCESSFUL, why))
+
+    def submit(self, goal: Goal | Rejection, handle: Any) -> Rejection | None:
+        """A FollowJointTrajectory goal (or the adapter's rejection of a message it could not read): the
+        sink hears accepted/rejected (and the result of a goal that ends at once); None when accepted."""
+        if not self.running:
+            return self._reject(
+                handle, Rejection(ErrorCode.INVALID_GOAL, "Can't accept new action goals. Controller is not running.")
+            )
+        rejection = goal if isinstance(goal, Rejection) else self._check(goal)
+        if (
+            isinstance(goal, Goal)
+            and not goal.points
+            and (rejection is None or rejection.code == ErrorCode.INVALID_GOAL)
+        ):
+            # As JointTrajectoryController: valid joints and no points stop the controller where it is.
+            self._preempt("preempted by an empty goal")
+            self._sim.hold(self.joints)
+            self.sink.accepted(handle)
+            self.sink.finished(handle, Result(Status.SUCCEEDED, ErrorCode.SUCCESSFUL, "stopped: empty trajectory"))
+            return None
+        if rejection is not None:
+            return self._reject(handle, rejection)
+        assert isinstance(goal, Goal)
+        trajectory = self._start(goal)
+        if isinstance(trajectory, Rejection):
+            return self._reject(handle, trajectory)
+        self._preempt("preempted by a new goal")
+        self.sink.accepted(handle)
+        tolerances = self.defaults.merged(
+            goal.path_position, goal.goal_position, goal.goal_time, goal.path_velocity, goal.goal_velocity
+        )
+        self._active = _Active(handle, list(goal.joint_names), trajectory, tolerances)
+        self._next_feedback = self._sim.time
+        return None
+
+    def _reject(self, handle: Any, rejection: Rejection) -> Rejection:
+        self.sink.warn(f"{self.name}: goal rejected ({int(rejection.code)}): {rejection.reason}")
+        self.sink.rejected(handle, rejection)
+        return rejection
+
+    def cancel(self, is_it: Callable[[Any], bool]) -> bool:
+        """A client's cancel: True when ``is_it`` says the active goal's handle is the canceled goal (the
+        joints then hold); the adapter answers canceled for any goal still pending or active."""
+        if self._active is None or not is_it(self._active.handle):
+            return False
+        self._sim.hold(self._active.joints)
+        self._active = None
+        return True
+
+    def command(self, goal: Goal | Rejection) -> Rejection | None:
+        """The ``command`` topic: a trajectory without a goal handle; an empty one stops where it is."""
+        if not self.running:
+            self.sink.warn(f"{self.name}/command: Can't accept new commands. Controller is not running.")
+            return Rejection(ErrorCode.INVALID_GOAL, "not running")
+        if isinstance(goal, Goal) and not goal.points:
+            self._preempt("stopped by an empty command")
+            self._sim.hold(self.joints)
+            return None
+        rejection = goal if isinstance(goal, Rejection) else self._check(goal)
+        if rejection is None:
+            started = self._start(goal)  # type: ignore[arg-type]
+            rejection = started if isinstance(started, Rejection) else None
+        if rejection is not None:
+            self.sink.warn(f"{self.name}/command: trajectory ignored: {rejection.reason}")
+            return rejection
+        self._preempt("preempted by a command")
+        return None
+
+    def query(self, when: float) -> State | str:
+        """QueryTrajectoryState: the desired state at ``when``, or why it cannot be sampled."""
+        if not self.running:
+            return f"{self.name}: Can't sample trajectory. Controller is not running."
+        return self._sim.desired(self.joints, when)
+
+    # -- every control period ----------------------------------------------------------------
+    def sample(self, joints: Sequence[str], now: float) -> Sample:
+        desired = self._sim.desired(joints, now)
+        actual = self._sim.data.qpos[[self._qpos[j] for j in joints]].copy()
+        return Sample(now, list(joints), desired, actual, self._velocities(joints))
+
+    def update(self) -> None:
+        """Publish the state, check the active goal's tolerances, send feedback (every control period)."""
+        if not self.running:
+            return
+        now = self._sim.time
+        if now >= self._next_state:
+            self.sink.state(self.sample(self.joints, now))
+            self._next_state = now + self._state_period
+        active = self._active
+        if active is None:
+            return
+        sample = self.sample(active.joints, now)
+        if now >= self._next_feedback:
+            self.sink.feedback(active.handle, sample)
+            self._next_feedback = now + self._feedback_period
+        if now < active.trajectory.end_time:
+            self._check_path(active, sample)
+        else:
+            self._check_goal(active, sample, now)
+
+    def _check_path(self, active: _Active, sample: Sample) -> None:
+        tolerances = active.tolerances
+        for joint, e, ev in zip(active.joints, sample.position_error, sample.velocity_error):
+            limit = tolerances.path.get(joint, 0.0)
+            vlimit = tolerances.path_velocity.get(joint, 0.0)
+            if (limit > 0 and abs(e) > limit) or (vlimit > 0 and abs(ev) > vlimit):
+                self._finish(
+                    ErrorCode.PATH_TOLERANCE_VIOLATED,
+                    f"{joint} is {abs(e):.4f} rad, {abs(ev):.4f} rad/s off its path "
+                    f"(tolerances {limit} rad, {vlimit} rad/s)",
+                    hold=True,
+                )
+                return
+
+    def _check_goal(self, active: _Active, sample: Sample, now: float) -> None:
+        tolerances = active.tolerances
+        final = active.trajectory.final_positions
+        columns = [active.trajectory.joints.index(j) for j in active.joints]
+        off = {j: abs(final[c] - a) for j, c, a in zip(active.joints, columns, sample.actual_positions)}
+        speed = {j: abs(v) for j, v in zip(active.joints, sample.actual_velocities)}
+
+        def outside(joint: str) -> bool:
+            position, velocity = tolerances.goal.get(joint, 0.0), tolerances.goal_velocity.get(joint, 0.0)
+            return (position > 0 and off[joint] > position) or (velocity > 0 and speed[joint] > velocity)
+
+        failing = [j for j in active.joints if outside(j)]
+        if not failing:
+            self._finish(ErrorCode.SUCCESSFUL, "")
+        elif now >= active.trajectory.end_time + tolerances.goal_time:  # JTC: at once when goal_time is 0
+            worst = failing[0]
+            self._finish(
+                ErrorCode.GOAL_TOLERANCE_VIOLATED,
+                f"{worst} is {off[worst]:.4f} rad from its goal moving at {speed[worst]:.4f} rad/s "
+                f"{tolerances.goal_time} s after the end (tolerances {tolerances.goal.get(worst, 0.0)} rad, "
+                f"{tolerances.goal_velocity.get(worst, 0.0)} rad/s)",
+            )
+
+    def _velocities(self, joints: Sequence[str]) -> np.ndarray:
+        """The joint velocities the real driver's hardware interface hands the controller."""
+        if not self._reports_velocity:
+            return np.zeros(len(joints))
+        return self._sim.data.qvel[[self._qvel[j] for j in joints]].copy()
+
+    def _finish(self, code: ErrorCode, text: str, hold: bool = False) -> None:
+        active = self._active
+        assert active is not None
+        self._active = None
+        if hold:
+            self._sim.hold(active.joints)
+        if code == ErrorCode.SUCCESSFUL:
+            self.sink.finished(active.handle, Result(Status.SUCCEEDED, code, text))
+        else:
+            self.sink.warn(f"{self.name}: goal aborted ({int(code)}): {text}")
+            self.sink.finished(active.handle, Result(Status.ABORTED, code, text))

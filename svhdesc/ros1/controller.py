@@ -1,0 +1,194 @@
+"""One JointTrajectoryController over ROS 1: a FollowJointTrajectory action server (actionlib), a
+``command`` topic, ``state`` (JointTrajectoryControllerState) and ``query_state``
+(QueryTrajectoryState). The semantics are svhdesc.control.trajectory's; this adapter converts messages
+and answers goal handles. ROS callbacks only queue work; the simulation thread does it (see node.py).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
+from svhdesc.control.trajectory import Goal, JointTrajectoryCore, Result, Sample, Status
+from svhdesc.control.work import on_sim_thread
+from svhdesc.model import ACTION
+from svhdesc.sim import Point, Simulation
+
+
+def _duration(value: Any) -> float:
+    return float(value.secs) + 1e-9 * float(value.nsecs)
+
+
+def _points(trajectory_msg: Any) -> list[Point]:
+    return [
+        Point(
+            _duration(point.time_from_start),
+            tuple(point.positions),
+            tuple(point.velocities) or None,
+            tuple(point.accelerations) or None,
+        )
+        for point in trajectory_msg.points
+    ]
+
+
+def trajectory_goal(trajectory: Any, goal: Any = None) -> Goal | Rejection:
+    """A JointTrajectory (and its FollowJointTrajectoryGoal's tolerances) as the core's Goal."""
+    try:
+        if goal is None:
+            return Goal(list(trajectory.joint_names), _points(trajectory), trajectory.header.stamp.to_sec())
+        return Goal(
+            list(trajectory.joint_names),
+            _points(trajectory),
+            trajectory.header.stamp.to_sec(),
+            {t.name: t.position for t in goal.path_tolerance},
+            {t.name: t.velocity for t in goal.path_tolerance},
+            {t.name: t.position for t in goal.goal_tolerance},
+            {t.name: t.velocity for t in goal.goal_tolerance},
+            _duration(goal.goal_time_tolerance),
+        )
+    except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
+        return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
+
+
+class TrajectoryController:
+    def __init__(
+        self,
+        name: str,
+        joints: Sequence[str],
+        sim: Simulation,
+        msgs: Any,
+        allow_partial: bool,
+        defaults: Tolerances,
+        queue: deque,
+        send: Callable[[list[tuple[Any, Any]]], None] | None = None,
+        feedback_period: float = 0.05,
+        state_period: float = 0.02,
+        running: bool = True,
+        reports_velocity: bool = True,
+    ) -> None:
+        """``send`` hands (callable, message) pairs to a publishing thread (default: call at once)."""
+        import actionlib
+        import rospy
+        from trajectory_msgs.msg import JointTrajectory
+
+        self.name = name
+        self.joints = list(joints)
+        self._msgs = msgs
+        self._rospy = rospy
+        self._queue = queue
+        self._send = send or (lambda batch: [target(message) for target, message in batch])
+        self.core = JointTrajectoryCore(
+            name, joints, sim, self, allow_partial, defaults, feedback_period, state_period, running, reports_velocity
+        )
+        self._server = actionlib.ActionServer(
+            f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
+            msgs.FollowJointTrajectoryAction,
+            lambda handle: queue.append((self.on_goal, handle)),
+            lambda handle: queue.append((self.on_cancel, handle)),
+            auto_start=False,
+        )
+        self._command = rospy.Subscriber(
+            f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=1
+        )
+        self._state = rospy.Publisher(f"{name}/state", msgs.JointTrajectoryControllerState, queue_size=1)
+        self._query = rospy.Service(f"{name}/query_state", msgs.QueryTrajectoryState, self._on_query)
+
+    def start(self) -> None:
+        self._server.start()
+
+    @property
+    def running(self) -> bool:
+        return self.core.running
+
+    def starting(self) -> None:
+        self.core.starting()
+
+    def stopping(self) -> None:
+        self.core.stopping()
+
+    def update(self) -> None:
+        self.core.update()
+
+    def _on_query(self, request: Any) -> Any:
+        """QueryTrajectoryState: answered by the simulation thread, as all work on the simulation."""
+        answer = on_sim_thread(self._queue, lambda: self.core.query(request.time.to_sec()))
+        if isinstance(answer, str):
+            raise self._rospy.ServiceException(answer)
+        return self._msgs.QueryTrajectoryStateResponse(
+            name=list(self.joints),
+            position=answer.positions.tolist(),
+            velocity=answer.velocities.tolist(),
+            acceleration=answer.accelerations.tolist(),
+        )
+
+    # -- called from the simulation thread ---------------------------------------------------
+    def on_goal(self, handle: Any) -> None:
+        goal = handle.get_goal()
+        self.core.submit(trajectory_goal(goal.trajectory, goal), handle)
+
+    def on_cancel(self, handle: Any) -> None:
+        from actionlib_msgs.msg import GoalStatus
+
+        goal_id = handle.get_goal_id().id
+        self.core.cancel(lambda active: active.get_goal_id().id == goal_id)
+        cancelable = (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.RECALLING, GoalStatus.PREEMPTING)
+        if handle.get_goal_status().status in cancelable:  # a finished goal stays as it ended
+            handle.set_canceled(self._result(ErrorCode.SUCCESSFUL, "canceled"), "canceled")
+
+    def on_command(self, msg: Any) -> None:
+        self.core.command(trajectory_goal(msg))
+
+    # -- the core's sink ---------------------------------------------------------------------
+    def _result(self, code: int, text: str) -> Any:
+        return self._msgs.FollowJointTrajectoryResult(error_code=int(code), error_string=text)
+
+    def accepted(self, handle: Any) -> None:
+        handle.set_accepted("")
+
+    def rejected(self, handle: Any, rejection: Rejection) -> None:
+        handle.set_rejected(self._result(rejection.code, rejection.reason), rejection.reason)
+
+    def finished(self, handle: Any, result: Result) -> None:
+        message = self._result(result.code, result.text)
+        if result.status is Status.SUCCEEDED:
+            handle.set_succeeded(message, result.text)
+        elif result.status is Status.ABORTED:
+            handle.set_aborted(message, result.text)
+        else:
+            handle.set_canceled(message, result.text)
+
+    def warn(self, text: str) -> None:
+        self._rospy.logwarn(text)
+
+    def state(self, sample: Sample) -> None:
+        message = self._msgs.JointTrajectoryControllerState()
+        message.header.stamp = self._rospy.Time.from_sec(sample.stamp)
+        message.joint_names = list(sample.joints)
+        self._fill(message, sample)
+        self._send([(self._state, message)])
+
+    def feedback(self, handle: Any, sample: Sample) -> None:
+        feedback = self._msgs.FollowJointTrajectoryFeedback()
+        feedback.header.stamp = self._rospy.Time.from_sec(sample.stamp)
+        feedback.joint_names = list(sample.joints)
+        self._fill(feedback, sample)
+        self._send([(handle.publish_feedback, feedback)])
+
+    @staticmethod
+    def _fill(message: Any, sample: Sample) -> None:
+        from trajectory_msgs.msg import JointTrajectoryPoint
+
+        desired = sample.desired
+        message.desired = JointTrajectoryPoint(
+            positions=desired.positions.tolist(),
+            velocities=desired.velocities.tolist(),
+            accelerations=desired.accelerations.tolist(),
+        )
+        message.actual = JointTrajectoryPoint(
+            positions=sample.actual_positions.tolist(), velocities=sample.actual_velocities.tolist()
+        )
+        message.error = JointTrajectoryPoint(
+            positions=sample.position_error.tolist(), velocities=sample.velocity_error.tolist()
+        )
