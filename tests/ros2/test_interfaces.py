@@ -1,5 +1,7 @@
 """control_msgs and controller_manager_msgs, built at install time by rosidl from svhdesc/ros2/interfaces/.
 
+Runs in .venv-ros2 (`.venv-ros2/bin/python -m pytest -n 0 tests/ros2`); skips where rclpy is missing.
+
 Checked against the committed definition files themselves: every field the .action/.srv/.msg names is a field of the
 generated class, and a goal survives rclpy's CDR round trip. Seeded fault: deleting `string error_string` from
 the committed FollowJointTrajectory.action (definition and build then disagree) fails
