@@ -87,6 +87,6 @@ run .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"
 if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
   [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
   run .venv-ros2/bin/python -m pip install -q --upgrade pip
-  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest
+  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest pytest-xdist
   run bash tools/build_ros2_interfaces.sh .venv-ros2
 fi
