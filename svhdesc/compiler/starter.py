@@ -130,6 +130,26 @@ def _block(comment: str, value: dict) -> list[str]:
     return [*(f"# {line}".rstrip() for line in comment.splitlines()), _dump(value), ""]
 
 
+def _coupling_blocks(out: Path, channels: list[str], lead: list) -> list[str]:
+    """The coupling spec's key, the channels' drives and the timestep the couplings need."""
+    lines = _block(
+        f"its <mimic> tags as a coupling spec (channels: {', '.join(channels)}); edit it to add the real\n"
+        "linkage's polynomials. Without this key the build reads the same spec from the <mimic> tags.",
+        {"coupling": f"{out.stem}.coupling.yaml"},
+    )
+    lines += _block(
+        "the drives of the channels: one position servo each (kp = largest effort / "
+        f"{STIFF_AT['prismatic']} m or {STIFF_AT['revolute']} rad). The armature (reflected rotor\n"
+        "inertia) keeps light followers on their channel while the arm jerks (the Panda's fingers: 1.8 mm\n"
+        "off without it, 0.8 mm with it, in validate's random targets)",
+        {"hand": {"kp": max(_kp(j) for j in lead), "joint_armature": ARMATURE, "coupled_joint_armature": ARMATURE}},
+    )
+    return lines + _block(
+        "the couplings' equality constraints (solref 0.002 s) need a timestep <= 1 ms",
+        {"simulation": {"timestep": 0.001}},
+    )
+
+
 def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     """The starter config for ``source`` written to ``out`` (paths in it are relative to ``out``'s folder)."""
     robot, mimics, packages = _read(source, given)
@@ -155,26 +175,8 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
         lines += _block(
             "the packages its meshes name (package://NAME/...), found beside the source", {"packages": written}
         )
-    coupling_name = None
     if spec is not None:
-        coupling_name = f"{out.stem}.coupling.yaml"
-        lines += _block(
-            f"its <mimic> tags as a coupling spec (channels: {', '.join(channels)}); edit it to add the real\n"
-            "linkage's polynomials. Without this key the build reads the same spec from the <mimic> tags.",
-            {"coupling": coupling_name},
-        )
-        lead = [joints[n] for n in channels]
-        lines += _block(
-            "the drives of the channels: one position servo each (kp = largest effort / "
-            f"{STIFF_AT['prismatic']} m or {STIFF_AT['revolute']} rad). The armature (reflected rotor\n"
-            "inertia) keeps light followers on their channel while the arm jerks (the Panda's fingers: 1.8 mm\n"
-            "off without it, 0.8 mm with it, in validate's random targets)",
-            {"hand": {"kp": max(_kp(j) for j in lead), "joint_armature": ARMATURE, "coupled_joint_armature": ARMATURE}},
-        )
-        lines += _block(
-            "the couplings' equality constraints (solref 0.002 s) need a timestep <= 1 ms",
-            {"simulation": {"timestep": 0.001}},
-        )
+        lines += _coupling_blocks(out, channels, [joints[n] for n in channels])
     if arm:
         lines += _block(
             "its independent movable joints: one position servo each, kp = effort / "
@@ -194,10 +196,7 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     lines += _block(
         "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}
     )
-    coupling = None
-    if spec is not None:
-        coupling = _coupling_text(spec, source)
-    return Starter("\n".join(lines), coupling)
+    return Starter("\n".join(lines), _coupling_text(spec, source) if spec is not None else None)
 
 
 def _mesh_packages_of(robot: Robot, packages: dict[str, Path]) -> list[str]:

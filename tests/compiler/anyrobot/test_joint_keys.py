@@ -87,4 +87,5 @@ def test_bad_keys(tmp_path: Path, extra: str, message: str) -> None:
     _write(tmp_path, extra)
     result = run_cli("build", "--config", str(tmp_path / "two.yaml"), "--out", str(tmp_path / "out"), in_process=True)
     assert result.returncode == 2
-    assert result.stderr.startswith("error:") and message in result.stderr, result.stderr
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and message in errors[0] and "Traceback" not in result.stderr, result.stderr
