@@ -130,11 +130,15 @@ def with_source_inertials(source: Path, tip: str, knuckle: str) -> None:
     edit(source / "finger.xacro", '<link name="${prefix}_p">', f'<link name="${{prefix}}_p">{knuckle}')
 
 
-def test_an_invalid_source_inertial_stops_the_build_without_recompute(tmp_path: Path) -> None:
+def test_an_invalid_source_inertial_is_recomputed_by_default(tmp_path: Path) -> None:
+    """Issue 26: without `mass.inertials: recompute` the invalid inertial is replaced too (it used to stop the
+    build), with one warning naming the link."""
     source = project(tmp_path)
     with_source_inertials(source, BAD_INERTIAL, GOOD_INERTIAL)
     result = CliRunner().invoke(main, ["build", "--config", str(source / "mini.yaml"), "--out", str(tmp_path / "o")])
-    assert result.exit_code == 2 and "link right_hand_t: principal moments" in result.stderr, result.stderr
+    assert result.exit_code == 0, result.stderr
+    warned = [line for line in result.stderr.splitlines() if "link right_hand_t: source inertial invalid" in line]
+    assert len(warned) == 1 and "recomputed as a cylinder" in warned[0], result.stderr
 
 
 def test_recompute_replaces_each_invalid_inertial_with_a_warning(tmp_path: Path) -> None:
