@@ -17,7 +17,7 @@ import yaml
 from lxml import etree
 
 from svhdesc.compiler.settings.config import PYTHON
-from svhdesc.compiler.settings.coupling import spec_from_mimics
+from svhdesc.compiler.settings.coupling import CouplingSpec, spec_from_mimics
 from svhdesc.compiler.source.packages import package_name_of
 from svhdesc.compiler.source.urdf import read_mimics, read_urdf
 from svhdesc.compiler.source.xacro import expand_xacro
@@ -130,26 +130,6 @@ def _block(comment: str, value: dict) -> list[str]:
     return [*(f"# {line}".rstrip() for line in comment.splitlines()), _dump(value), ""]
 
 
-def _coupling_blocks(out: Path, channels: list[str], lead: list) -> list[str]:
-    """The coupling spec's key, the channels' drives and the timestep the couplings need."""
-    lines = _block(
-        f"its <mimic> tags as a coupling spec (channels: {', '.join(channels)}); edit it to add the real\n"
-        "linkage's polynomials. Without this key the build reads the same spec from the <mimic> tags.",
-        {"coupling": f"{out.stem}.coupling.yaml"},
-    )
-    lines += _block(
-        "the drives of the channels: one position servo each (kp = largest effort / "
-        f"{STIFF_AT['prismatic']} m or {STIFF_AT['revolute']} rad). The armature (reflected rotor\n"
-        "inertia) keeps light followers on their channel while the arm jerks (the Panda's fingers: 1.8 mm\n"
-        "off without it, 0.8 mm with it, in validate's random targets)",
-        {"hand": {"kp": max(_kp(j) for j in lead), "joint_armature": ARMATURE, "coupled_joint_armature": ARMATURE}},
-    )
-    return lines + _block(
-        "the couplings' equality constraints (solref 0.002 s) need a timestep <= 1 ms",
-        {"simulation": {"timestep": 0.001}},
-    )
-
-
 def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     """The starter config for ``source`` written to ``out`` (paths in it are relative to ``out``'s folder)."""
     robot, mimics, packages = _read(source, given)
@@ -161,7 +141,6 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     if not movable:
         raise SvhdescError(f"{source}: robot {robot.name} has no movable joint: nothing to drive")
     arm = [j for j in movable if j.name not in coupled and j.name not in channels]
-    joints = {j.name: j for j in robot.joints}
     lines = [
         f"# Starter config for {source.name} (robot {robot.name}), written by `svhdesc init`.",
         "# Build and check it with",
@@ -176,7 +155,7 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
             "the packages its meshes name (package://NAME/...), found beside the source", {"packages": written}
         )
     if spec is not None:
-        lines += _coupling_blocks(out, channels, [joints[n] for n in channels])
+        lines += _channel_blocks(spec, robot, out)
     if arm:
         lines += _block(
             "its independent movable joints: one position servo each, kp = effort / "
@@ -196,7 +175,36 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     lines += _block(
         "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}
     )
-    return Starter("\n".join(lines), _coupling_text(spec, source) if spec is not None else None)
+    coupling = None
+    if spec is not None:
+        coupling = _coupling_text(spec, source)
+    return Starter("\n".join(lines), coupling)
+
+
+def _channel_blocks(spec: CouplingSpec, robot: Robot, out: Path) -> list[str]:
+    """The coupling key, the channels' servo and the timestep the couplings need."""
+    channels = [c.joint for c in spec.channels]
+    joints = {j.name: j for j in robot.joints}
+    lines: list[str] = []
+    coupling_name = f"{out.stem}.coupling.yaml"
+    lines += _block(
+        f"its <mimic> tags as a coupling spec (channels: {', '.join(channels)}); edit it to add the real\n"
+        "linkage's polynomials. Without this key the build reads the same spec from the <mimic> tags.",
+        {"coupling": coupling_name},
+    )
+    lead = [joints[n] for n in channels]
+    lines += _block(
+        "the drives of the channels: one position servo each (kp = largest effort / "
+        f"{STIFF_AT['prismatic']} m or {STIFF_AT['revolute']} rad). The armature (reflected rotor\n"
+        "inertia) keeps light followers on their channel while the arm jerks (the Panda's fingers: 1.8 mm\n"
+        "off without it, 0.8 mm with it, in validate's random targets)",
+        {"hand": {"kp": max(_kp(j) for j in lead), "joint_armature": ARMATURE, "coupled_joint_armature": ARMATURE}},
+    )
+    lines += _block(
+        "the couplings' equality constraints (solref 0.002 s) need a timestep <= 1 ms",
+        {"simulation": {"timestep": 0.001}},
+    )
+    return lines
 
 
 def _mesh_packages_of(robot: Robot, packages: dict[str, Path]) -> list[str]:
@@ -221,7 +229,7 @@ def _masses(robot: Robot) -> list[str]:
     return _block(comment, {"mass": {"links": {name: GUESSED_MASS for name in guessed}}})
 
 
-def _coupling_text(spec, source: Path) -> str:  # type: ignore[no-untyped-def]
+def _coupling_text(spec: CouplingSpec, source: Path) -> str:
     channels = [
         {"name": c.name, "range": [c.lower, c.upper], "effort": c.effort, "velocity": c.velocity} for c in spec.channels
     ]

@@ -457,6 +457,7 @@ def test_disk_full(mini: tuple[Path, Path], tmpfs: Callable[..., Path]) -> None:
         out, "build", "--config", str(project / "mini.yaml"), "--out", str(out), match="no space left"
     )
     assert str(out) in message
+    assert ".svhdesc-build-" not in message  # a staged file is named by where it goes, not by the staging folder
     assert list(out.iterdir()) == []  # no staging directory left behind
 
 
@@ -636,3 +637,15 @@ def test_an_arm_side_error_names_the_arm_s_xacro(project: Callable[..., Path]) -
     config_file, out = str(root / "config" / "svhdesc.yaml"), str(root / "out")
     where = f"ur5.xacro:{line}: joint shoulder_pan_joint: effort must be >= 0"
     fails_cleanly(None, "build", "ur5_svh_right", "--config", config_file, "--out", out, match=where)
+
+
+def test_a_staged_file_is_named_by_where_it_goes() -> None:
+    """Errors name OUT/<variant>/..., never the internal staging folder (seeded fault: _published_name returning
+    the path as given)."""
+    import errno
+
+    from svhdesc.compiler.build.outdir import fs_error
+
+    staged = "/tmp/out/.svhdesc-build-x1y2/svh_right/assets/a_hull_00.obj"
+    error = fs_error(Path("/tmp/out"), OSError(errno.ENOSPC, "No space", staged))
+    assert str(error) == "/tmp/out/svh_right/assets/a_hull_00.obj: no space left on the device"

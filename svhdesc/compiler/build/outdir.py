@@ -41,11 +41,18 @@ NO_EXCHANGE_ENV = "SVHDESC_TEST_NO_EXCHANGE"
 
 
 def fs_error(path: Path, exc: OSError) -> SvhdescError:
-    """One line for a filesystem failure, naming the path."""
+    """One line for a filesystem failure, naming the path; a file being staged is named by where it goes
+    (``OUT/svh_right/...``, not ``OUT/.svhdesc-build-x1y2/svh_right/...``)."""
     reason = exc.strerror or str(exc)
     if exc.errno == errno.ENOSPC:
         reason = "no space left on the device"
-    return SvhdescError(f"{exc.filename or path}: {reason}")
+    return SvhdescError(f"{_published_name(exc.filename) if exc.filename else path}: {reason}")
+
+
+def _published_name(filename: object) -> str:
+    parts = Path(os.fsdecode(filename)).parts  # type: ignore[arg-type]
+    staged = next((i for i, part in enumerate(parts) if part.startswith(STAGING_PREFIX)), None)
+    return str(Path(*parts[:staged], *parts[staged + 1 :])) if staged is not None else str(Path(*parts))
 
 
 def _exchange(a: Path, b: Path) -> bool:

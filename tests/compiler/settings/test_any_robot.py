@@ -130,14 +130,15 @@ def with_source_inertials(source: Path, tip: str, knuckle: str) -> None:
     edit(source / "finger.xacro", '<link name="${prefix}_p">', f'<link name="${{prefix}}_p">{knuckle}')
 
 
-def test_an_invalid_source_inertial_is_recomputed_with_one_warning_by_default(tmp_path: Path) -> None:
-    """Any sane URDF builds: an invalid inertial on a link with geometry becomes the cylinder fitted to it at the
-    source's mass, one warning naming the link (seeded fault: that default removed, and the build stops)."""
+def test_an_invalid_source_inertial_is_recomputed_by_default(tmp_path: Path) -> None:
+    """Issue 26: without `mass.inertials: recompute` the invalid inertial is replaced too (it used to stop the
+    build), with one warning naming the link."""
     source = project(tmp_path)
     with_source_inertials(source, BAD_INERTIAL, GOOD_INERTIAL)
-    warnings = build(source / "mini.yaml", tmp_path / "out")
-    replaced = [line for line in warnings.splitlines() if "recomputed as a cylinder" in line]
-    assert len(replaced) == 1 and "link right_hand_t: source inertial invalid (principal moments" in replaced[0]
+    result = CliRunner().invoke(main, ["build", "--config", str(source / "mini.yaml"), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.stderr
+    warned = [line for line in result.stderr.splitlines() if "link right_hand_t: source inertial invalid" in line]
+    assert len(warned) == 1 and "recomputed as a cylinder" in warned[0], result.stderr
 
 
 def test_recompute_replaces_each_invalid_inertial_with_a_warning(tmp_path: Path) -> None:
