@@ -131,7 +131,7 @@ def test_cli_writes_json_and_refuses_bad_input(tmp_path: Path) -> None:
         assert "Traceback" not in bad.stderr
     scene.write_text("obstacles:\n- {shape: sphere, size: [1], position: [0, 0, 0]}\n")
     bad = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--scene", str(scene))
-    assert bad.returncode == 2 and "obstacles[0]" in bad.stderr
+    assert bad.returncode == 2 and f"{scene}:2:" in bad.stderr  # the entry's line
 
 
 def test_sim_scene_adds_objects_and_refuses_bad_files(tmp_path: Path) -> None:
@@ -146,7 +146,7 @@ def test_sim_scene_adds_objects_and_refuses_bad_files(tmp_path: Path) -> None:
     z = float(line.split("xyz")[1].split()[2])
     assert z == pytest.approx(-0.14, abs=0.002)  # the free can stands on the table (it would fall without it)
     for text, culprit in (
-        ("obstacles:\n- {name: x, shape: box, size: [1, 1], position: [0, 0, 0]}\n", "obstacles[0]"),
+        ("obstacles:\n- {name: x, shape: box, size: [1, 1], position: [0, 0, 0]}\n", "scene.yaml:2:"),
         ("obstacles:\n- {name: x, shape: box, size: [1, 1, 1], position: [0, 0, 0], mass: -1}\n", "mass"),
         ("obstacles:\n- {name: x, shape: box, size: [1, 1, .nan], position: [0, 0, 0]}\n", "finite"),
         ("obstacles: 3\n", "obstacles:"),

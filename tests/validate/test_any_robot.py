@@ -156,8 +156,12 @@ def test_load_limits_names_the_joint_that_ran_away(tmp_path: Path) -> None:
 @pytest.mark.skipif(not (SVH / "scene_batch.xml").is_file(), reason="generated/svh_right is not built")
 def test_batch_without_its_engines_is_skipped_with_the_reason(monkeypatch: pytest.MonkeyPatch) -> None:
     """Neither MuJoCo Warp nor MJX importable (the `validate` extra alone): skipped, each reason given, exit 0."""
+    import mujoco
+
     for module in ("warp", "mujoco_warp", "mujoco.mjx"):
         monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError, as when not installed
+    # `from mujoco import mjx` reads the package's attribute first, set by an earlier test's import of it
+    monkeypatch.delattr(mujoco, "mjx", raising=False)
     check = only(check_batch(load_pair(SVH / "svh_right.urdf", SVH / "svh_right.xml"), OPTIONS))
     assert check.status == "skipped", check.detail
     assert "warp not installed" in check.detail and "svhdesc[batch]" in check.detail
