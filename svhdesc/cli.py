@@ -678,7 +678,8 @@ def _inertia_setting(text: str) -> float | None:
     "scene_file",
     type=click.Path(path_type=Path),
     default=None,
-    help="YAML obstacles/objects to add (those with a mass move freely); the format of 'svhdesc plan --scene'.",
+    help="YAML file whose 'obstacles:' key lists boxes and cylinders to add (those with a mass move freely); "
+    "the format of 'svhdesc plan --scene' (docs/plan.md).",
 )
 @click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
 @_friendly
@@ -728,7 +729,14 @@ def sim_command(
 @click.option("--pose", nargs=6, type=float, default=None, help="Goal pose of the tool frame: X Y Z ROLL PITCH YAW.")
 @click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
 @click.option("--timeout", type=float, default=5.0, show_default=True, help="Planning time limit (s).")
-@click.option("--scene", "scene_file", type=click.Path(path_type=Path), default=None, help="YAML list of obstacles.")
+@click.option(
+    "--scene",
+    "scene_file",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="YAML file whose 'obstacles:' key lists boxes and cylinders (name, shape, size, position; mass, friction) "
+    "to plan around; see docs/plan.md.",
+)
 @click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the plan as JSON.")
 @click.option("--seed", type=int, default=1, show_default=True, help="OMPL's random seed (same seed, same path).")
 @click.option("--execute", is_flag=True, help="Send it to a running 'svhdesc sim --ros' and report tracking error.")
