@@ -111,6 +111,18 @@ package_option = click.option(
 )
 
 
+def scene_option(what: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``--scene FILE``: one format for sim and plan (svhdesc/sim/objects.py, docs/plan.md)."""
+    return click.option(
+        "--scene",
+        "scene_file",
+        type=click.Path(path_type=Path),
+        default=None,
+        help=f"YAML file whose 'obstacles:' key lists boxes and cylinders (name, shape, size, position; mass, "
+        f"friction) {what}; see docs/plan.md.",
+    )
+
+
 def _config_exists(config_path: Path | None) -> None:
     if config_path is not None and not config_path.is_file():
         raise SvhdescError(f"{config_path}: no such config file")
@@ -673,14 +685,7 @@ def _inertia_setting(text: str) -> float | None:
     default=None,
     help="With --ros: the connector YAML (default: the variant's config/connector.yaml).",
 )
-@click.option(
-    "--scene",
-    "scene_file",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="YAML file whose 'obstacles:' key lists boxes and cylinders to add (those with a mass move freely); "
-    "the format of 'svhdesc plan --scene' (docs/plan.md).",
-)
+@scene_option("to add (those with a mass move freely)")
 @click.argument("ros_args", nargs=-1, type=click.UNPROCESSED)
 @_friendly
 def sim_command(
@@ -729,14 +734,7 @@ def sim_command(
 @click.option("--pose", nargs=6, type=float, default=None, help="Goal pose of the tool frame: X Y Z ROLL PITCH YAW.")
 @click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
 @click.option("--timeout", type=float, default=5.0, show_default=True, help="Planning time limit (s).")
-@click.option(
-    "--scene",
-    "scene_file",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="YAML file whose 'obstacles:' key lists boxes and cylinders (name, shape, size, position; mass, friction) "
-    "to plan around; see docs/plan.md.",
-)
+@scene_option("to plan around")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the plan as JSON.")
 @click.option("--seed", type=int, default=1, show_default=True, help="OMPL's random seed (same seed, same path).")
 @click.option("--execute", is_flag=True, help="Send it to a running 'svhdesc sim --ros' and report tracking error.")
