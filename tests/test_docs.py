@@ -108,6 +108,13 @@ def test_every_relative_link_and_image_resolves() -> None:
     assert not problems, "\n".join(problems)
 
 
+def test_every_picture_in_docs_is_shown() -> None:
+    """A picture moved out of the README must still be shown somewhere (nothing lost in the move)."""
+    text = " ".join(path.read_text(encoding="utf-8") for path in doc_files(REPO))
+    unshown = [p.name for p in sorted((REPO / "docs").glob("*.png")) if p.name not in text]
+    assert not unshown, f"docs/ pictures no page shows: {unshown}"
+
+
 def test_readme_is_short_and_has_the_two_commands_verbatim() -> None:
     assert not readme_problems(REPO)
     ci = (REPO / ".ci" / "run").read_text(encoding="utf-8").splitlines()
