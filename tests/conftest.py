@@ -89,7 +89,9 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             if "vendor_build" in getattr(item, "fixturenames", ()):
                 item.add_marker(pytest.mark.xdist_group("vendor_build"))
             elif "validated" in getattr(item, "fixturenames", ()):
-                item.add_marker(pytest.mark.xdist_group("validated"))
+                # One group per variant: the three full validate runs spread over the workers, each run once.
+                variant = getattr(item, "callspec", None) and item.callspec.params.get("variant")
+                item.add_marker(pytest.mark.xdist_group(f"validated-{variant or 'svh_right'}"))
             elif group := _module_fixture_group(item):
                 item.add_marker(pytest.mark.xdist_group(group))
 

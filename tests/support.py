@@ -10,6 +10,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import pytest
+
 from svhdesc.compiler.settings.config import load_config
 
 TESTS = Path(__file__).resolve().parent
@@ -17,6 +19,8 @@ REPO = TESTS.parent
 SHARED = REPO.parent / "shared"
 VENDOR_SVH = SHARED / "vendor" / "schunk_svh_driver"
 VENDOR_UR = SHARED / "vendor" / "ur_description"
+# The --check runs that rebuild the hand: one worker, the cold one first, so they share its decompositions.
+HULL_CHECK = pytest.mark.xdist_group("hull_check")
 # From the config, not a copy of it: a variant added there is tested everywhere.
 VARIANTS = tuple(load_config(REPO / "config" / "svhdesc.yaml").variants)
 

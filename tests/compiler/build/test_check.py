@@ -10,7 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.support import REPO, run_cli
+from tests.support import HULL_CHECK, REPO, run_cli
+
+# The cold check below decomposes every hand mesh into the run's hull cache; the group runs it first (collection
+# order) so that the other --check runs of the group (here and in test_determinism.py) find their hulls there.
+pytestmark = HULL_CHECK
 
 
 @pytest.mark.slow

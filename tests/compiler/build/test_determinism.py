@@ -22,12 +22,13 @@ import trimesh
 
 from svhdesc.compiler import exact
 from svhdesc.compiler.build.agreement import RTOL, file_difference, text_difference
-from tests.support import REPO, run_cli
+from tests.support import HULL_CHECK, REPO, run_cli
 
 PERTURB = {exact.PERTURB_ENV: "4"}
 
 
 @pytest.mark.slow
+@HULL_CHECK
 def test_perturbed_build_differs_in_bytes_but_passes_check(tmp_path: Path) -> None:
     out = tmp_path / "gen"
     result = run_cli("build", "svh_right", "--force", "--out", str(out), env=PERTURB)
@@ -50,6 +51,7 @@ def _bump_number(text: str, attribute: str, index: int, factor: float) -> str:
 
 
 @pytest.mark.slow
+@HULL_CHECK
 @pytest.mark.parametrize("index", [0, 5])  # a diagonal moment and the smallest off-diagonal product
 def test_check_fails_on_a_change_of_1e9_relative(tmp_path: Path, index: int) -> None:
     out = tmp_path / "gen"
@@ -185,6 +187,7 @@ def test_mesh_authoring_writes_the_committed_bytes_on_other_cpus(tmp_path: Path,
 
 
 @pytest.mark.slow
+@HULL_CHECK
 def test_build_check_passes_on_another_cpu(tmp_path: Path) -> None:
     # A copy of generated/: the committed hulls seed the rebuild (decomposing is not what this tests).
     # ur5_svh_right holds every number svh_right does (the same hand) and the arm's; svh_left is its mirror.
