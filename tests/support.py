@@ -10,7 +10,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent

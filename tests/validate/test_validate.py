@@ -179,7 +179,7 @@ def test_mjcf_only_multiplier_leaves_geometry_alone(tmp_path: Path) -> None:
 
 def test_nonlinear_polynomial_is_compared_to_its_least_squares_line(tmp_path: Path) -> None:
     """A quadratic coupling: the linear URDF <mimic> (and Gazebo plugin) must carry its least-squares line."""
-    from svhdesc.compiler.settings.coupling import linearise
+    from svhdesc.core.settings.coupling import linearise
 
     coeffs = (0.0, 1.0, 0.03)
     offset, multiplier = linearise(coeffs, 0.0, 1.334)  # Index_Finger_Distal's commanded range
