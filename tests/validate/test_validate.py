@@ -228,6 +228,9 @@ def test_built_variant_passes_every_check(variant: str, validated: Callable[[str
     model = mujoco.MjModel.from_xml_path(str(REPO / "generated" / variant / f"{variant}.xml"))
     assert len(contact["joints"]) == model.njnt > 0
     assert all("mad_rad" in v for v in contact["joints"].values()) and contact["force_mean_n"] > 0
+    # The force is labelled with what holds it (svhdesc.validate.stops): a stop-held contact says so in the table.
+    stop_held = contact["held_by"] == "joint stops"
+    assert stop_held == ("on joint stops" in checks["contact_stability"]["value"]) == (contact["stop_share"] > 0.5)
     for name in (f"{variant}_contact_joints.png", f"{variant}_contact_force.png"):
         assert (plots / name).stat().st_size > 0
     assert sorted(p.suffix for p in plots.iterdir()) == [".png", ".png"]
