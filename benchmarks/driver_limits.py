@@ -19,7 +19,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def main(variant: str = "svh_right") -> int:
-    from svhdesc.compiler.settings.coupling import load_spec
+    from svhdesc.core.settings.coupling import load_spec
     from svhdesc.validate.fingertip_force import press
 
     mjcf = REPO / "generated" / variant / f"{variant}.xml"

@@ -129,8 +129,8 @@ def _config_exists(config_path: Path | None) -> None:
 
 
 def _load(config_path: Path | None, packages: tuple[str, ...]) -> tuple[Any, dict[str, Path]]:
-    from svhdesc.compiler.settings.config import load_config
-    from svhdesc.compiler.source.packages import package_map, parse_package_option
+    from svhdesc.core.settings.config import load_config
+    from svhdesc.core.source.packages import package_map, parse_package_option
 
     _config_exists(config_path)
     config = load_config(config_path or default_config())
@@ -236,8 +236,8 @@ def build_command(
 @_friendly
 def init_command(source: Path, out: Path | None, packages: tuple[str, ...]) -> None:
     """Write a commented starter config for the URDF or xacro SOURCE (and, from its <mimic> tags, a coupling spec)."""
-    from svhdesc.compiler.source.packages import parse_package_option
     from svhdesc.compiler.starter import starter
+    from svhdesc.core.source.packages import parse_package_option
 
     explicit = dict(parse_package_option(p) for p in packages)
     target = out or Path(f"{source.stem.removesuffix('.urdf')}.yaml")
@@ -274,7 +274,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose import HullCache
     from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
-    from svhdesc.compiler.settings.coupling import coupling_matrix
+    from svhdesc.core.settings.coupling import coupling_matrix
 
     config, package_dirs = _load(config_path, packages)
     selected = config.select([variant])[0]
@@ -406,7 +406,7 @@ def validate_command(
 
     selected = select_checks(checks)
     if config_path is not None:  # an explicit config must be good, not silently skipped
-        from svhdesc.compiler.settings.config import load_config
+        from svhdesc.core.settings.config import load_config
 
         _config_exists(config_path)
         load_config(config_path)

@@ -151,14 +151,14 @@ class Model:
     @property
     def package_name(self) -> str:
         """The ROS package this folder is (put its parent on ROS_PACKAGE_PATH)."""
-        from svhdesc.compiler.source.packages import package_name_of
+        from svhdesc.core.source.packages import package_name_of
 
         return package_name_of(self.directory) or self.name
 
     def mesh_file(self, uri: str) -> Path | None:
         """A mesh URI of this model as a local file: package:// of this folder's package or of one on
         ROS_PACKAGE_PATH (model:// alike), file://, absolute and relative paths. None if nothing resolves it."""
-        from svhdesc.compiler.source.packages import local_mesh_path
+        from svhdesc.core.source.packages import local_mesh_path
 
         return local_mesh_path(uri, self.directory)
 
@@ -197,14 +197,14 @@ class Model:
 
     def manifest(self) -> dict[str, Any] | None:
         """The build's manifest.json (every input, output and tool by hash); None where there is none."""
-        from svhdesc.compiler.build import manifest
+        from svhdesc.core import manifest
 
         return manifest.read(self.directory)
 
     def configuration(self, config: Path | None = None) -> Configuration | None:
         """What the config that built this model says: the variant of this name in ``config``, else in the
         default config or a config the manifest names (package://svhdesc/config/...). None where none does."""
-        from svhdesc.compiler.settings.config import load_config
+        from svhdesc.core.settings.config import load_config
 
         for candidate in [config] if config else [default_config(), *self._manifest_configs()]:
             try:
@@ -250,11 +250,11 @@ class Configuration:
     variant: str
     config_dir: Path
     args: Mapping[str, str]  # the xacro arguments
-    settings: Any  # the typed sections (svhdesc.compiler.settings.schema.Settings): .hand, .mass, .grasps, ...
+    settings: Any  # the typed sections (svhdesc.core.settings.schema.Settings): .hand, .mass, .grasps, ...
 
     def channels(self) -> dict[str, Channel]:
         """The coupling spec's channels (the real driver's motors), by unprefixed name."""
-        from svhdesc.compiler.settings.coupling import load_spec
+        from svhdesc.core.settings.coupling import load_spec
 
         if self.settings.coupling is None:
             return {}  # configured without a coupling spec: no channels
@@ -382,13 +382,13 @@ def urdf_velocity_limits(urdf: Path) -> dict[str, float]:
 
 def expand_source(xacro: Path, args: Mapping[str, str], packages: Mapping[str, Path]) -> etree._Element:
     """A Xacro entry point expanded as the build expands it (no ROS installation needed)."""
-    from svhdesc.compiler.source.xacro import expand_xacro
+    from svhdesc.core.source.xacro import expand_xacro
 
     return expand_xacro(xacro, args, packages)[0]
 
 
 def load_source_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> trimesh.Trimesh:
     """A .dae/.stl/.obj as the build reads it: one welded mesh in metres, COLLADA frame and ``scale`` applied."""
-    from svhdesc.compiler.source.meshes import load_mesh
+    from svhdesc.core.source.meshes import load_mesh
 
     return load_mesh(path, scale)

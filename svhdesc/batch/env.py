@@ -175,10 +175,10 @@ def make(
     scene: Path | None = None,
 ) -> BatchEnv:
     """``nworld`` worlds of the variant's batch scene (or of ``scene``) on ``device`` ("cpu", "cuda", "cuda:1")."""
-    import svhdesc
+    from svhdesc.model import get
 
     mujoco = require("mujoco", "svhdesc.batch", "batch")
-    path = scene if scene is not None else svhdesc.get(variant).batch_scene_path
+    path = scene if scene is not None else get(variant).batch_scene_path
     if not Path(path).is_file():
         raise SvhdescError(f"{path}: no batch scene (rebuild: svhdesc build {variant})")
     return BatchEnv(mujoco.MjModel.from_xml_path(str(path)), nworld, device, nconmax, njmax)

@@ -92,12 +92,10 @@ class MujocoEngine(Engine):
     def load(self, config: RunConfig) -> None:
         import mujoco
 
-        import svhdesc
+        from svhdesc.model import get
 
         setup = config.setup
-        spec = _spec(
-            svhdesc.get(config.variant).mjcf_path, config.inertia, config.finger_links, config.mass, config.mass_links
-        )
+        spec = _spec(get(config.variant).mjcf_path, config.inertia, config.finger_links, config.mass, config.mass_links)
         experiment.add_surface(spec, setup.surface)
         spec.option.timestep = config.timestep
         self.model = spec.compile()

@@ -70,9 +70,9 @@ MAX_COLLIDE = 250  # contacts asked of dCollide per pair before keeping the deep
 
 def pid_gains(variant: str) -> dict[str, dict[str, float]]:
     """``gazebo_ros_control/pid_gains/<joint>`` (p, i, d, i_clamp) of the variant's generated ros_controllers.yaml."""
-    import svhdesc
+    from svhdesc.model import get
 
-    return read_pid_gains(svhdesc.get(variant).directory / "config" / "ros_controllers.yaml")
+    return read_pid_gains(get(variant).directory / "config" / "ros_controllers.yaml")
 
 
 def read_pid_gains(path: Path) -> dict[str, dict[str, float]]:
@@ -109,13 +109,13 @@ class OdeEngine(Engine):
             raise EngineMissing(f"not installed ({cls.install})") from None
 
     def load(self, config: RunConfig) -> None:
-        import svhdesc
+        from svhdesc.model import get
 
         self.ode = import_ode()
         self.lib = libode.load()
         setup = config.setup
         self._dt = config.timestep
-        links, joints, mimics = read_urdf(svhdesc.get(config.variant).urdf_text("path"))
+        links, joints, mimics = read_urdf(get(config.variant).urdf_text("path"))
         for name, link in links.items():
             if config.mass is not None and name in config.mass_links and link.mass > 0:
                 link.mass = config.mass

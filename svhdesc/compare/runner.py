@@ -235,11 +235,11 @@ def run_grid(
     conditions: experiment.Conditions | None = None,
 ) -> tuple[experiment.Setup, list[Result]]:
     """Every engine x inertia; ``progress(result)`` is called after each run."""
-    import svhdesc
     from svhdesc.compare.mujoco_engine import finger_links, hand_links, servo
+    from svhdesc.model import get
 
     conditions = conditions or experiment.Conditions()
-    mjcf = svhdesc.get(variant).mjcf_path
+    mjcf = get(variant).mjcf_path
     setup = experiment.define(mjcf, conditions.test_pose)
     links = finger_links(mjcf)
     heavy = hand_links(mjcf) if conditions.link_mass is not None else frozenset()

@@ -16,11 +16,11 @@ from pathlib import Path
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.settings.config import PYTHON
-from svhdesc.compiler.settings.coupling import CouplingSpec, spec_from_mimics
-from svhdesc.compiler.source.packages import package_name_of
-from svhdesc.compiler.source.urdf import read_mimics, read_urdf
-from svhdesc.compiler.source.xacro import expand_xacro
+from svhdesc.core.settings.config import PYTHON
+from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
+from svhdesc.core.source.packages import package_name_of
+from svhdesc.core.source.urdf import read_mimics, read_urdf
+from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Joint, Robot
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from svhdesc import get
 from svhdesc.loaders._common import require
+from svhdesc.model import get
 
 
 def load_mujoco(name: str = "ur5_svh_right", scene: bool = False) -> Any:

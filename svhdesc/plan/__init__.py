@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import svhdesc
 from svhdesc.errors import SvhdescError
+from svhdesc.model import get
 from svhdesc.plan.config import MoveItConfig, load_config
 from svhdesc.plan.planner import PLANNERS, Plan, plan_motion, seed_ompl
 from svhdesc.plan.scene import CollisionScene
@@ -29,7 +29,7 @@ StateSpec = str | Sequence[float] | Mapping[str, float]
 
 class Planner:
     def __init__(self, variant: str, obstacles: Sequence[Obstacle] = ()) -> None:
-        model = svhdesc.get(variant)
+        model = get(variant)
         self.variant = variant
         self.config = load_config(model.directory, variant)
         self.scene = CollisionScene(variant, self.config, obstacles)

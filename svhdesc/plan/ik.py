@@ -9,9 +9,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-import svhdesc
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
+from svhdesc.model import get
 from svhdesc.plan.config import MoveItConfig
 from svhdesc.plan.scene import CollisionScene
 
@@ -35,7 +35,7 @@ def pose_matrix(pose: Sequence[float]) -> np.ndarray:
 class Kinematics:
     def __init__(self, variant: str, config: MoveItConfig) -> None:
         self.pin = require("pinocchio", "planning to a pose (--pose)", "engines")
-        self.model = self.pin.buildModelFromUrdf(str(svhdesc.get(variant).urdf_path))
+        self.model = self.pin.buildModelFromUrdf(str(get(variant).urdf_path))
         self.data = self.model.createData()
         self.config = config
 

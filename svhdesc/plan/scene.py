@@ -13,10 +13,9 @@ from dataclasses import replace
 
 import numpy as np
 
-import svhdesc
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
-from svhdesc.model import couplings
+from svhdesc.model import couplings, get
 from svhdesc.plan.config import MoveItConfig
 from svhdesc.polynomial import polyval
 from svhdesc.sim.objects import Obstacle, add_objects
@@ -32,7 +31,7 @@ class CollisionScene:
     def __init__(self, variant: str, config: MoveItConfig, obstacles: Sequence[Obstacle] = ()) -> None:
         mujoco = require("mujoco", "planning", "sim")
         self._mj = mujoco
-        spec = mujoco.MjSpec.from_file(str(svhdesc.get(variant).mjcf_path))
+        spec = mujoco.MjSpec.from_file(str(get(variant).mjcf_path))
         for exclude in list(spec.excludes):
             spec.delete(exclude)
         bodies = {b.name for b in spec.bodies}

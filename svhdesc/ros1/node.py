@@ -172,7 +172,7 @@ class SimNode:
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64
 
-        import svhdesc
+        from svhdesc.model import get
         from svhdesc.ros1.manager import ControllerManager
 
         self._rospy = rospy
@@ -181,7 +181,7 @@ class SimNode:
         self.outbox = Outbox()
         self._period = 1.0 / rate
         self._clock_period = 1.0 / clock_rate
-        urdf = svhdesc.get(sim.variant).urdf_path
+        urdf = get(sim.variant).urdf_path
         self._frame = urdf_root(urdf)
         msgs = control_msgs()
         self._clock = _publisher(rospy, "/clock", Clock)
@@ -341,9 +341,9 @@ class SimNode:
 
 
 def default_connector(variant: str) -> Path:
-    import svhdesc
+    from svhdesc.model import get
 
-    return svhdesc.get(variant).directory / "config" / "connector.yaml"
+    return get(variant).directory / "config" / "connector.yaml"
 
 
 def run_node(

@@ -70,11 +70,11 @@ class Simulation:
         False lets the hand's servos take a command at once (faster than the real hand)."""
         import mujoco
 
-        import svhdesc
+        from svhdesc.model import get
 
         self._mj = mujoco
         try:
-            built = svhdesc.get(variant)
+            built = get(variant)
         except KeyError as exc:
             raise SvhdescError(str(exc.args[0])) from None
         scene = built.scene_path

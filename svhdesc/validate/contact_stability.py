@@ -5,8 +5,10 @@ RAMP s). A static box is added so that its face sits DEPTH inside the fingertip'
 in the ``test`` pose; the servos then press the tip into it. After SETTLE s, joint positions and the
 fingertip's normal force are recorded for RECORD s. Per joint, the mean absolute deviation from the
 running average of the WINDOW samples around it (thesis eq. 5.1, centred) must stay below MAD_BOUND; the force
-must be positive and steady. The experiment itself (surface placement, ramp, schedule, eq. 5.1) is
-defined in ``svhdesc.compare.experiment``, shared with ``svhdesc compare``.
+must be positive and steady. What holds the contact is reported beside the force (svhdesc.validate.stops): on a
+finger the surface pushes into its joint limits, the force measures the stops, not the servos. The experiment
+itself (surface placement, ramp, schedule, eq. 5.1) is defined in ``svhdesc.compare.experiment``, shared with
+``svhdesc compare``.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from svhdesc.model import scalar_joints
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
+from svhdesc.validate.stops import Load, load
 
 MAD_BOUND = 1e-9  # rad
 FORCE_CV_BOUND = 0.02  # std / mean of the normal force
@@ -41,6 +44,7 @@ class Experiment:
     setup: dict[str, Any] = field(default_factory=dict)
     nan_at: float | None = None
     warnings: dict[str, int] = field(default_factory=dict)
+    load: Load | None = None  # what holds the contact at the last step: the servos or the joint stops
 
 
 def run_experiment(pair: ModelPair) -> Experiment:
@@ -67,7 +71,7 @@ def run_experiment(pair: ModelPair) -> Experiment:
     dt = scene.opt.timestep
     _, record_from, _ = shared.schedule(dt)
     joints = scalar_joints(scene)
-    press = _Press(scene, sdata, box, {int(g) for g in range(scene.ngeom) if scene.geom_bodyid[g] == tip})
+    press = _Press(scene, sdata, box, tip, {int(g) for g in range(scene.ngeom) if scene.geom_bodyid[g] == tip})
     qpos, force, touch, nan_at = press.record(scene.key_ctrl[home].copy(), scene.key_ctrl[test].copy(), joints)
     setup = {
         "fingertip": scene.body(tip).name,
@@ -92,6 +96,7 @@ def run_experiment(pair: ModelPair) -> Experiment:
         setup,
         nan_at,
         warning_counts(sdata),
+        load(scene, sdata, tip, press.tip_contacts()) if nan_at is None else None,
     )
 
 
@@ -102,6 +107,7 @@ class _Press:
     scene: Any
     data: Any
     box: int
+    tip: int  # the fingertip's body
     tip_geoms: set[int]
 
     def record(
@@ -132,19 +138,25 @@ class _Press:
             touch[step] = sdata.sensordata[touch_adr]
         return qpos, force, touch, None
 
+    def tip_contacts(self) -> list[int]:
+        """Indices of the box's contacts with the fingertip."""
+        box, tip_geoms = self.box, self.tip_geoms
+        return [
+            index
+            for index, contact in enumerate(self.data.contact[: self.data.ncon])
+            if (contact.geom1 == box and contact.geom2 in tip_geoms)
+            or (contact.geom2 == box and contact.geom1 in tip_geoms)
+        ]
+
     def normal_force(self) -> float:
         """The normal force of the box's contacts with the fingertip."""
         import mujoco
 
-        box, tip_geoms, sdata = self.box, self.tip_geoms, self.data
         wrench = np.zeros(6)
         normal_force = 0.0
-        for index, contact in enumerate(sdata.contact[: sdata.ncon]):
-            if (contact.geom1 == box and contact.geom2 in tip_geoms) or (
-                contact.geom2 == box and contact.geom1 in tip_geoms
-            ):
-                mujoco.mj_contactForce(self.scene, sdata, index, wrench)
-                normal_force += wrench[0]
+        for index in self.tip_contacts():
+            mujoco.mj_contactForce(self.scene, self.data, index, wrench)
+            normal_force += wrench[0]
         return normal_force
 
 
@@ -189,10 +201,25 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
         "window_placement": "centred (MATLAB movmean: 5 samples before, 4 after)",
         "setup": run.setup,
         "warnings": run.warnings,
+        **_load_figures(run.load),
     }
     measured = f"max MAD {fmt(float(deviations.max()))} rad, F {force.mean:.3g} N +- {force.variation:.2%}"
-    detail = "; ".join(problems) or f"{len(joints)} joints still, {run.setup['direction_from']}"
+    if run.load is not None and run.load.held_by_stops:
+        measured += f", {run.load.stop_share:.0%} on joint stops"
+    still = f"{len(joints)} joints still, {run.setup['direction_from']}"
+    detail = "; ".join([*problems, *([run.load.describe()] if run.load is not None else [])]) or still
     return [Check("contact_stability", verdict(not problems), measured, bound, detail, figures, table=text)]
+
+
+def _load_figures(held: Load | None) -> dict[str, Any]:
+    if held is None:
+        return {}
+    return {
+        "held_by": "joint stops" if held.held_by_stops else "servos",
+        "stop_share": held.stop_share,
+        "contact_load_on_joints": held.contact,
+        "joint_stop_load": held.stops,
+    }
 
 
 class _Force:
@@ -237,5 +264,5 @@ def _table(run: Experiment, joints: dict[str, dict], force: _Force, touch: np.nd
         f"\nnormal force on {run.setup['fingertip']}: mean {force.mean:.4g} N, std {force.std:.3g} N "
         f"({force.variation:.3%}); touch sensor mean {touch.mean():.4g} N, std {touch.std():.3g} N"
         f"\nsurface along {np.array2string(np.array(run.setup['direction']), precision=3)}: "
-        f"{run.setup['direction_from']}"
+        f"{run.setup['direction_from']}" + (f"\n{run.load.describe()}" if run.load is not None else "")
     )

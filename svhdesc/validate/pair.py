@@ -23,7 +23,7 @@ def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
 def rpy_matrix(rpy: np.ndarray) -> np.ndarray:
     """URDF fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
 
-    Deliberately not the builder's own (compiler.frames): a validator sharing the code it checks
+    Deliberately not the builder's own (svhdesc.core.frames): a validator sharing the code it checks
     would share its bugs.
     """
     r, p, y = rpy

@@ -3,13 +3,24 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from svhdesc.validate.contact_stability import Experiment
+import numpy as np
 
 
-def plot_contact(run: Experiment, name: str, directory: Path) -> list[Path]:
+class ContactRun(Protocol):
+    """What the plots read of a contact experiment (svhdesc.validate.contact_stability.Experiment); a protocol, so
+    that the check imports the plots and not the other way round."""
+
+    joints: list[str]
+    time: np.ndarray
+    qpos: np.ndarray
+    force: np.ndarray
+    touch: np.ndarray
+    record_from: int
+
+
+def plot_contact(run: ContactRun, name: str, directory: Path) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")  # headless: no display needed

@@ -167,12 +167,12 @@ class Scene:
     def __init__(
         self, wire_map: WireMap, config: SceneConfig | None = None, markers: list[list[float]] | None = None
     ) -> None:
-        import svhdesc
+        from svhdesc.model import get
 
         mujoco = _mujoco()
         self.map = wire_map
         self.config = cfg = config or SceneConfig()
-        spec = mujoco.MjSpec.from_file(str(svhdesc.get(VARIANT).scene_path))
+        spec = mujoco.MjSpec.from_file(str(get(VARIANT).scene_path))
         # Where the palm is in the home pose decides where the wire goes (below it, centred).
         palm_pos, palm_mat = _palm_at_home(spec)
         self.height = float(palm_pos[2] - cfg.drop)

@@ -502,8 +502,8 @@ def test_duplicate_names_in_the_final_model_are_refused(kind: str) -> None:
     """Names the stages add (sensor sites, keyframes) are checked in the final model, not only in the xacro."""
     from dataclasses import replace
 
-    from svhdesc.compiler.settings.config import load_config
     from svhdesc.compiler.stages.semantics import check_unique_names
+    from svhdesc.core.settings.config import load_config
     from svhdesc.errors import SvhdescError
     from svhdesc.ir import ForceSensor, Keyframe, Link, Robot
 

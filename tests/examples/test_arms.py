@@ -12,7 +12,7 @@ import pytest
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 from tests.support import REPO, run_cli
 
 mujoco = pytest.importorskip("mujoco")

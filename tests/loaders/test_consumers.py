@@ -90,7 +90,7 @@ def test_sdformat_output_resolves_its_meshes() -> None:
 
 
 def test_each_variant_is_a_ros_package_found_on_ros_package_path() -> None:
-    from svhdesc.compiler.source.packages import package_map
+    from svhdesc.core.source.packages import package_map
 
     found = package_map({}, env={"ROS_PACKAGE_PATH": str(svhdesc.get("svh_right").directory.parent)})
     for name in svhdesc.variants():

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.core.settings.coupling import load_spec
 from svhdesc.errors import SvhdescError
 from svhdesc.sim import Point, Simulation, State, Trajectory
 from tests.support import REPO, run_cli

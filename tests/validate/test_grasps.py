@@ -13,8 +13,8 @@ from typing import Any
 import pytest
 from lxml import etree
 
-from svhdesc.compiler.settings.config import load_config
-from svhdesc.compiler.settings.coupling import load_spec
+from svhdesc.core.settings.config import load_config
+from svhdesc.core.settings.coupling import load_spec
 from svhdesc.errors import SvhdescError
 from tests.validate.test_validate import PREFIX, REPO, SOURCE, VARIANT, faulty_copy, one, validate_pair
 

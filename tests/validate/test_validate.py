@@ -179,7 +179,7 @@ def test_mjcf_only_multiplier_leaves_geometry_alone(tmp_path: Path) -> None:
 
 def test_nonlinear_polynomial_is_compared_to_its_least_squares_line(tmp_path: Path) -> None:
     """A quadratic coupling: the linear URDF <mimic> (and Gazebo plugin) must carry its least-squares line."""
-    from svhdesc.compiler.settings.coupling import linearise
+    from svhdesc.core.settings.coupling import linearise
 
     coeffs = (0.0, 1.0, 0.03)
     offset, multiplier = linearise(coeffs, 0.0, 1.334)  # Index_Finger_Distal's commanded range
@@ -228,6 +228,9 @@ def test_built_variant_passes_every_check(variant: str, validated: Callable[[str
     model = mujoco.MjModel.from_xml_path(str(REPO / "generated" / variant / f"{variant}.xml"))
     assert len(contact["joints"]) == model.njnt > 0
     assert all("mad_rad" in v for v in contact["joints"].values()) and contact["force_mean_n"] > 0
+    # The force is labelled with what holds it (svhdesc.validate.stops): a stop-held contact says so in the table.
+    stop_held = contact["held_by"] == "joint stops"
+    assert stop_held == ("on joint stops" in checks["contact_stability"]["value"]) == (contact["stop_share"] > 0.5)
     for name in (f"{variant}_contact_joints.png", f"{variant}_contact_force.png"):
         assert (plots / name).stat().st_size > 0
     assert sorted(p.suffix for p in plots.iterdir()) == [".png", ".png"]

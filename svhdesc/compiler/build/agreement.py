@@ -1,7 +1,7 @@
 """When a fresh build of a file agrees with the committed one: the rule of ``build --check`` and the meshes' test.
 
 Bytes equal, or, for text, everything equal except numbers, and each number within ``RTOL`` relative of its
-counterpart. The build computes with CPU-independent arithmetic (``svhdesc.compiler.exact``), so on every machine
+counterpart. The build computes with CPU-independent arithmetic (``svhdesc.core.exact``), so on every machine
 tried the bytes are equal; the tolerance is the safety net for a last-bit difference of a C library on a CPU nobody
 tried. It is far below any real change: a number moved by 1e-9 of itself fails. The manifest's output hashes follow
 the same rule: a hash may differ only for an output that agrees by it.

@@ -5,7 +5,6 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from svhdesc.compiler.build import manifest as manifest_file
 from svhdesc.compiler.build.agreement import file_difference, manifest_difference
 from svhdesc.compiler.build.freshness import portable, sha256, svhdesc_version, tool_versions
 from svhdesc.compiler.build.outdir import output_directory, publish, require_exchange
@@ -13,7 +12,8 @@ from svhdesc.compiler.build.pipeline import Compiled, compile_variants
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built
-from svhdesc.compiler.settings.config import Config
+from svhdesc.core import manifest as manifest_file
+from svhdesc.core.settings.config import Config
 from svhdesc.paths import models_dir
 
 

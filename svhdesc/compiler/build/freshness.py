@@ -13,8 +13,8 @@ from functools import cache
 from importlib import metadata
 from pathlib import Path
 
-from svhdesc.compiler.build import manifest as manifest_file
-from svhdesc.compiler.settings.config import Variant
+from svhdesc.core import manifest as manifest_file
+from svhdesc.core.settings.config import Variant
 
 TOOLS = ("svhdesc", "xacro", "lxml", "numpy", "trimesh", "pycollada", "scipy", "coacd", "manifold3d", "mujoco")
 PACKAGE_DIR = Path(__file__).resolve().parents[2]  # svhdesc/

@@ -21,14 +21,6 @@ from lxml import etree
 
 from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.settings.config import Config, Variant
-from svhdesc.compiler.settings.coupling import load_spec, spec_from_mimics
-from svhdesc.compiler.settings.schema import Settings
-from svhdesc.compiler.settings.yamlio import where
-from svhdesc.compiler.source import mount as mount_source
-from svhdesc.compiler.source.packages import resolve_uri
-from svhdesc.compiler.source.urdf import SourceMimic, read_mimics, read_urdf
-from svhdesc.compiler.source.xacro import expand_xacro
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import collision_rules
@@ -40,6 +32,14 @@ from svhdesc.compiler.stages.inertials import add_inertials
 from svhdesc.compiler.stages.rest_contacts import exclude_touching
 from svhdesc.compiler.stages.semantics import check_driven, check_hand_names, check_keyframes, check_unique_names
 from svhdesc.compiler.stages.world import add_world
+from svhdesc.core.settings.config import Config, Variant
+from svhdesc.core.settings.coupling import load_spec, spec_from_mimics
+from svhdesc.core.settings.schema import Settings
+from svhdesc.core.settings.yamlio import where
+from svhdesc.core.source import mount as mount_source
+from svhdesc.core.source.packages import resolve_uri
+from svhdesc.core.source.urdf import SourceMimic, read_mimics, read_urdf
+from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 

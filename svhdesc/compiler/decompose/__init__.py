@@ -23,7 +23,7 @@ from svhdesc.compiler.decompose.coacd_run import _close_holes, _hull, _merge_to_
 from svhdesc.compiler.decompose.keys import cache_key
 from svhdesc.compiler.decompose.params import LINK_CLASS_PARAMS, DecompParams, DecompParamsError
 from svhdesc.compiler.decompose.pool import parallel_decompose
-from svhdesc.compiler.source.meshes import mesh_from_stl as _mesh_from_stl
+from svhdesc.core.source.meshes import mesh_from_stl as _mesh_from_stl
 
 __all__ = [
     "CacheWarning",

@@ -20,7 +20,7 @@ import trimesh
 from svhdesc.compiler.decompose.coacd_run import _decompose_stl
 from svhdesc.compiler.decompose.keys import _ALGORITHM_VERSION, _coacd_version, _key_from_stl, cache_key
 from svhdesc.compiler.decompose.params import DecompParams
-from svhdesc.compiler.source.meshes import mesh_from_stl, stl_bytes
+from svhdesc.core.source.meshes import mesh_from_stl, stl_bytes
 
 # --------------------------------------------------------------------------- cache
 

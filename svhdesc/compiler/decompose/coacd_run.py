@@ -8,7 +8,7 @@ import numpy as np
 import trimesh
 
 from svhdesc.compiler.decompose.params import DecompParams, DecompParamsError
-from svhdesc.compiler.source.meshes import mesh_from_stl, stl_bytes
+from svhdesc.core.source.meshes import mesh_from_stl, stl_bytes
 
 # --------------------------------------------------------------------------- decomposition
 

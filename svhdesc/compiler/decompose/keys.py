@@ -8,7 +8,7 @@ import importlib.metadata
 import trimesh
 
 from svhdesc.compiler.decompose.params import DecompParams
-from svhdesc.compiler.source.meshes import stl_bytes
+from svhdesc.core.source.meshes import stl_bytes
 
 # Bump when anything in the post-processing changes its output: it is part of every key,
 # so stale cache entries simply stop matching.

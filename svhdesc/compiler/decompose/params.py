@@ -90,7 +90,7 @@ class DecompParams:
         return json.dumps(dataclasses.asdict(self), sort_keys=True, separators=(",", ":"))
 
 
-# Presets per link class, measured on the vendor meshes as loaded by svhdesc.compiler.source.meshes (2 cores,
+# Presets per link class, measured on the vendor meshes as loaded by svhdesc.core.source.meshes (2 cores,
 # one job at a time).  "excess" = hull volume outside the mesh / mesh volume; "cover" = share of
 # the mesh inside the hulls; a single convex hull is the reference.
 #   palm      h10, h11    5.4, 6.4 s   8 hulls  excess 0.39, 0.48 (one hull 0.73, 0.76)  cover 98, 97 %

@@ -15,7 +15,7 @@ from svhdesc.compiler.decompose.cache import HullCache, _entry_meta
 from svhdesc.compiler.decompose.coacd_run import _decompose_stl
 from svhdesc.compiler.decompose.keys import _key_from_stl
 from svhdesc.compiler.decompose.params import DecompParams
-from svhdesc.compiler.source.meshes import mesh_from_stl, stl_bytes
+from svhdesc.core.source.meshes import mesh_from_stl, stl_bytes
 
 # --------------------------------------------------------------------------- parallel
 

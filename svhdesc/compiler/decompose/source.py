@@ -10,12 +10,12 @@ from pathlib import Path
 
 import trimesh
 
-from svhdesc.compiler.build import manifest as manifest_file
 from svhdesc.compiler.decompose.cache import HullCache
 from svhdesc.compiler.decompose.keys import cache_key
 from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.compiler.decompose.pool import parallel_decompose
-from svhdesc.compiler.source.meshes import stl_bytes
+from svhdesc.core import manifest as manifest_file
+from svhdesc.core.source.meshes import stl_bytes
 
 
 def default_cache_dir() -> Path:

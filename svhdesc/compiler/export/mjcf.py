@@ -8,7 +8,7 @@ from typing import Any
 from lxml import etree
 
 from svhdesc.compiler.export.xmlfmt import num, nums, serialise, sub
-from svhdesc.compiler.frames import quat_wxyz
+from svhdesc.core.frames import quat_wxyz
 from svhdesc.ir import Actuator, Geometry, Joint, Link, Robot
 
 JOINT_TYPES = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide"}

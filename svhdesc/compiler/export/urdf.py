@@ -5,7 +5,7 @@ from __future__ import annotations
 from lxml import etree
 
 from svhdesc.compiler.export.xmlfmt import num, nums, serialise, sub
-from svhdesc.compiler.settings.coupling import linearise
+from svhdesc.core.settings.coupling import linearise
 from svhdesc.ir import Geometry, Joint, Link, Pose, Robot
 
 MIMIC_PLUGIN = "libroboticsgroup_upatras_gazebo_mimic_joint_plugin.so"

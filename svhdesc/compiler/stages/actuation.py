@@ -8,11 +8,11 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.compiler.settings.coupling import propagate
-from svhdesc.compiler.settings.schema import Arm, Hand, Transmissions
-from svhdesc.compiler.settings.yamlio import where
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.inertials import link_solid
+from svhdesc.core.settings.coupling import propagate
+from svhdesc.core.settings.schema import Arm, Hand, Transmissions
+from svhdesc.core.settings.yamlio import where
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Actuator, Channel, ForceSensor, Joint, Keyframe, Robot, Transmission
 

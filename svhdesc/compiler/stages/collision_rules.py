@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from svhdesc.compiler.decompose import LINK_CLASS_PARAMS, DecompParams
-from svhdesc.compiler.settings.yamlio import where
+from svhdesc.core.settings.yamlio import where
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 

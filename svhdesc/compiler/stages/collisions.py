@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from svhdesc.compiler.settings.yamlio import where
+from svhdesc.core.settings.yamlio import where
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from svhdesc.compiler.settings import schema as settings
-from svhdesc.compiler.settings.schema import CONTACT_MODELS, Hand
 from svhdesc.compiler.stages.assets import Assets
+from svhdesc.core.settings import schema as settings
+from svhdesc.core.settings.schema import CONTACT_MODELS, Hand
 from svhdesc.ir import Contact, Robot
 
 

@@ -6,8 +6,8 @@ import warnings
 from dataclasses import dataclass
 
 from svhdesc.compiler.export.urdf import mimic_order_problems
-from svhdesc.compiler.settings.coupling import CouplingSpec, apply_spec
 from svhdesc.compiler.stages.assets import Assets
+from svhdesc.core.settings.coupling import CouplingSpec, apply_spec
 from svhdesc.ir import Robot
 
 

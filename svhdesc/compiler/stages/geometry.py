@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from svhdesc.compiler import exact
 from svhdesc.compiler.decompose import DecompParams, bounded_hull
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.frames import axis_frame, matrix_pose, pose_matrix
-from svhdesc.compiler.source.meshes import MeshError, convex_hull, load_mesh, obj_bytes, principal_cylinder, stl_bytes
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import CollisionRule
+from svhdesc.core import exact
+from svhdesc.core.frames import axis_frame, matrix_pose, pose_matrix
+from svhdesc.core.source.meshes import MeshError, convex_hull, load_mesh, obj_bytes, principal_cylinder, stl_bytes
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Robot
 

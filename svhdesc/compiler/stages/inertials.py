@@ -10,11 +10,11 @@ from dataclasses import replace
 import numpy as np
 import trimesh
 
-from svhdesc.compiler import exact
-from svhdesc.compiler.frames import axis_frame, pose_matrix
-from svhdesc.compiler.settings.schema import Hand, Mass, expand_hand
-from svhdesc.compiler.source.meshes import principal_cylinder
 from svhdesc.compiler.stages.assets import Assets
+from svhdesc.core import exact
+from svhdesc.core.frames import axis_frame, pose_matrix
+from svhdesc.core.settings.schema import Hand, Mass, expand_hand
+from svhdesc.core.source.meshes import principal_cylinder
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Inertial, Link, Robot
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from svhdesc.compiler.settings.schema import Arm, Hand
-from svhdesc.compiler.settings.yamlio import where
+from svhdesc.core.settings.schema import Arm, Hand
+from svhdesc.core.settings.yamlio import where
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
-from svhdesc.compiler.settings.coupling import spec_from_mimics
-from svhdesc.compiler.source.urdf import read_mimics, read_urdf
+from svhdesc.core.settings.coupling import spec_from_mimics
+from svhdesc.core.source.urdf import read_mimics, read_urdf
 from svhdesc.errors import SvhdescError
 
 

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from svhdesc.compiler import exact
 from svhdesc.compiler.build.agreement import RTOL, file_difference, text_difference
+from svhdesc.core import exact
 from tests.support import HULL_CHECK, REPO, run_cli
 
 PERTURB = {exact.PERTURB_ENV: "4"}

@@ -24,7 +24,7 @@ def test_fingerprint_covers_the_whole_package() -> None:
     [
         ("compiler/stages/inertials.py", True),
         ("compiler/export/mjcf.py", True),
-        ("compiler/source/urdf.py", True),
+        ("core/source/urdf.py", True),
         ("ir.py", True),
         ("model.py", True),  # the exporters read the driver's names and the batch model's constants from it
         ("validate/runner.py", False),

@@ -14,7 +14,7 @@ from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose import HullCache
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import OUTPUTS
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 from tests.support import TESTS

@@ -100,7 +100,7 @@ def hull_caps(variant: str) -> dict[str, int]:
     """Link -> max_convex_hull of its decomposition, as the config resolves it (classes, then per-link overrides)."""
     from svhdesc.compiler.build.pipeline import plan_variant
     from svhdesc.compiler.build.timings import Timings
-    from svhdesc.compiler.settings.config import load_config
+    from svhdesc.core.settings.config import load_config
 
     selected = load_config(REPO / "config" / "svhdesc.yaml").select([variant])[0]
     jobs = plan_variant(selected, {}, None, Timings()).jobs

@@ -14,7 +14,7 @@ import trimesh
 
 import svhdesc.compiler.decompose as dec
 from svhdesc.compiler.decompose import DecompParams, HullCache, cached_decompose, decompose, parallel_decompose
-from svhdesc.compiler.source.meshes import STL_HEADER, stl_bytes
+from svhdesc.core.source.meshes import STL_HEADER, stl_bytes
 from tests.support import REPO
 
 # Cheap settings: the test meshes are watertight, so CoACD's manifold remesh can be skipped.
@@ -400,7 +400,7 @@ SVH_MESHES = REPO.parent / "shared" / "vendor" / "schunk_svh_driver" / "descript
 @pytest.mark.skipif(not SVH_MESHES.is_dir(), reason="vendor meshes (../shared) not present")
 def test_vendor_phalanx_with_preset() -> None:
     # f11 is open (mm-size holes): hole closing makes it a solid CoACD can cut without remeshing.
-    from svhdesc.compiler.source.meshes import load_mesh
+    from svhdesc.core.source.meshes import load_mesh
 
     mesh = load_mesh(SVH_MESHES / "f11.dae")
     assert not mesh.is_watertight

@@ -9,7 +9,7 @@ import pytest
 from lxml import etree
 
 import svhdesc
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 from svhdesc.paths import default_config
 from tests.support import VARIANTS
 

@@ -12,7 +12,7 @@ import yaml
 from lxml import etree
 
 import svhdesc
-from svhdesc.compiler.settings.config import load_config
+from svhdesc.core.settings.config import load_config
 from svhdesc.ros1.system import ros_available
 from tests.support import REPO, VARIANTS
 

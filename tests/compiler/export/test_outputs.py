@@ -8,7 +8,7 @@ import pytest
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.settings.coupling import load_spec, polyval
+from svhdesc.core.settings.coupling import load_spec, polyval
 from tests.support import REPO, VARIANTS, built, model_files
 
 SPEC = load_spec(REPO / "config" / "coupling.yaml")

@@ -93,7 +93,7 @@ def test_collision_matrix_entry_is_the_computed_matrix(tmp_path: Path, monkeypat
     from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose.cache import HullCache
     from svhdesc.compiler.decompose.source import HullSource
-    from svhdesc.compiler.settings.config import load_config
+    from svhdesc.core.settings.config import load_config
 
     monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path / "cache"))
     hulls = HullSource(HullCache(tmp_path / "hulls"))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from svhdesc.compiler.settings.schema import Mount
+from svhdesc.core.settings.schema import Mount
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 from svhdesc.paths import source_root

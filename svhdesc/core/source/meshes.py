@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from svhdesc.compiler import exact
+from svhdesc.core import exact
 
 MAX_RAW = 1e6  # largest plausible number in a mesh file (a coordinate of 1 km in millimetres)
 MAX_METRES = 1e3  # largest plausible coordinate in metres

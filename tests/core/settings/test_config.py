@@ -8,7 +8,7 @@ import pytest
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.source.packages import package_map, resolve_uri
+from svhdesc.core.source.packages import package_map, resolve_uri
 from svhdesc.errors import SvhdescError
 from tests.support import REPO, run_cli
 

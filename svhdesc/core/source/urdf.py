@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from svhdesc.compiler import exact
-from svhdesc.compiler.frames import rpy_matrix
-from svhdesc.compiler.source.packages import resolve_uri
+from svhdesc.core import exact
+from svhdesc.core.frames import rpy_matrix
+from svhdesc.core.source.packages import resolve_uri
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
 

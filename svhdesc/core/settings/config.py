@@ -10,11 +10,11 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from svhdesc.compiler.settings.schema import CONTACT_MODELS, Settings, mapping_of, normalise, text
-from svhdesc.compiler.settings.yamlio import Node, load_yaml, where
+from svhdesc.core.settings.schema import CONTACT_MODELS, Settings, mapping_of, normalise, text
+from svhdesc.core.settings.yamlio import Node, load_yaml, where
 from svhdesc.errors import SvhdescError
 
-# Every section a config may hold: the fields of the one schema (svhdesc.compiler.settings.schema).
+# Every section a config may hold: the fields of the one schema (svhdesc.core.settings.schema).
 SECTIONS: tuple[str, ...] = tuple(f.name for f in fields(Settings) if not f.metadata.get("located"))
 VARIANT_KEYS = {"xacro", "args"} | set(SECTIONS)
 __all__ = ["CONTACT_MODELS", "Config", "Variant", "load_config"]

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from svhdesc.compiler.settings.schema import number, numbers, text
-from svhdesc.compiler.settings.yamlio import load_yaml, where
-from svhdesc.compiler.source.urdf import SourceMimic
+from svhdesc.core.settings.schema import number, numbers, text
+from svhdesc.core.settings.yamlio import load_yaml, where
+from svhdesc.core.source.urdf import SourceMimic
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Channel, Coupling, Mimic, Robot
 from svhdesc.polynomial import image, linearise, polyval

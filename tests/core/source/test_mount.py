@@ -14,9 +14,9 @@ import pytest
 
 from svhdesc.compiler.build.pipeline import read_source
 from svhdesc.compiler.build.timings import Timings
-from svhdesc.compiler.settings.config import load_config
-from svhdesc.compiler.settings.schema import Mount
-from svhdesc.compiler.source.mount import graft
+from svhdesc.core.settings.config import load_config
+from svhdesc.core.settings.schema import Mount
+from svhdesc.core.source.mount import graft
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Joint, Link, Robot
 from tests.support import REPO, fails_cleanly

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
-from svhdesc.compiler.settings.config import load_config, resolve_path
-from svhdesc.compiler.source.packages import resolve_uri
-from svhdesc.compiler.source.urdf import read_urdf
+from svhdesc.core.settings.config import load_config, resolve_path
+from svhdesc.core.source.packages import resolve_uri
+from svhdesc.core.source.urdf import read_urdf
 from svhdesc.errors import SvhdescError
-from tests.compiler.settings.test_any_robot import NO_HAND, build, project, urdf
+from tests.core.settings.test_any_robot import NO_HAND, build, project, urdf
 from tests.support import REPO, fails_cleanly
 
 ROBOTS = "python:cmeel.prefix/share/example-robot-data/robots"
@@ -40,7 +40,7 @@ def test_resolving_a_python_path_imports_nothing() -> None:
     """Seeded fault: find_spec("cmeel.prefix") imports cmeel, whose import leaves a temporary folder that Python
     reports at exit ("Implicitly cleaning up <TemporaryDirectory ...>")."""
     code = (
-        "import sys; from pathlib import Path; from svhdesc.compiler.settings.config import resolve_path; "
+        "import sys; from pathlib import Path; from svhdesc.core.settings.config import resolve_path; "
         f"resolve_path({ROBOTS + '/ur_description'!r}, Path('.'), 'x'); "
         "assert 'cmeel' not in sys.modules, 'cmeel imported'"
     )

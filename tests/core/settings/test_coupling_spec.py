@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svhdesc.compiler.settings.coupling import CouplingWarning, apply_spec, image, linearise, load_spec
+from svhdesc.core.settings.coupling import CouplingWarning, apply_spec, image, linearise, load_spec
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Joint, Link, Robot
 from tests.support import REPO

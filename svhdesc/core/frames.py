@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from svhdesc.compiler import exact
+from svhdesc.core import exact
 from svhdesc.ir import Pose
 
 

@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from lxml import etree
 
 from svhdesc.cli import main
-from svhdesc.compiler.settings.config import load_config, resolve_path
+from svhdesc.core.settings.config import load_config, resolve_path
 from svhdesc.errors import SvhdescError
 from tests.support import TESTS
 

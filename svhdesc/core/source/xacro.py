@@ -10,7 +10,7 @@ from xml.parsers.expat import ExpatError
 
 from lxml import etree
 
-from svhdesc.compiler.source.packages import find_package
+from svhdesc.core.source.packages import find_package
 from svhdesc.errors import SvhdescError
 
 

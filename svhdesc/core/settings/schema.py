@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-from svhdesc.compiler.settings.yamlio import Node, where
+from svhdesc.core.settings.yamlio import Node, where
 from svhdesc.errors import SvhdescError
 
 CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}

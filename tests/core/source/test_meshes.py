@@ -1,4 +1,4 @@
-"""svhdesc.compiler.source.meshes: loading, canonical STL, hulls, cylinder fits; the authored meshes."""
+"""svhdesc.core.source.meshes: loading, canonical STL, hulls, cylinder fits; the authored meshes."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from svhdesc.compiler.build.agreement import file_difference
-from svhdesc.compiler.source.meshes import (
+from svhdesc.core.source.meshes import (
     MeshError,
     convex_hull,
     load_mesh,

@@ -1,0 +1,1 @@
+"""svhdesc/core/settings"""
