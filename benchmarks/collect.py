@@ -7,7 +7,11 @@ One section per results file, in name order, each with the command, machine and 
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results import fields  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "docs" / "results"
@@ -24,15 +28,6 @@ INTRO = [
     "| figures | command | machine | date |",
     "|---|---|---|---|",
 ]
-
-
-def fields(text: str) -> dict[str, str]:
-    found = {}
-    for line in text.splitlines():
-        for key in ("command", "machine", "date"):
-            if line.startswith(f"- {key}: "):
-                found[key] = line.split(": ", 1)[1]
-    return found
 
 
 def main() -> None:
