@@ -8,7 +8,8 @@
 Every world starts at keyframe home and is driven towards its own random servo targets (fixed seed) for
 --steps physics steps after a warm-up call (which compiles Warp's kernels, cached in .cache/warp, and on a
 GPU captures the step graph). The reference, in the same run: one MuJoCo C MjData stepped on one thread with
-the same scene and targets. Prints one row per nworld and the ratio to MuJoCo C.
+the same scene and targets. Prints one row per nworld and the ratio to MuJoCo C, and writes them to
+docs/results/batch.md (other variants, devices and --grasp: batch_<variant>_gpu_grasp.md and the like).
 The goal for a GPU is 1,000,000 hand steps/s for svh_right on one H100. Not a test: machines are noisy.
 """
 
@@ -33,6 +34,13 @@ import svhdesc  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from results import write  # noqa: E402
+
+CPU_NOTE = [
+    "On a CPU, Warp is meant for GPUs, not to beat one MuJoCo C thread (the ratio column; all figures move with the",
+    "other jobs on a shared machine). A GPU's figures: `python benchmarks/batch_bench.py --device cuda` (nworld 1 to",
+    "4096, the step replayed as a captured CUDA graph) writes `docs/results/batch_gpu.md`. The goal of 1,000,000 hand",
+    "steps/s on one H100 ([speed.md](/docs/speed.md)) is measured only there.",
+]
 
 
 def targets(model: mujoco.MjModel, nworld: int, grasp: bool) -> np.ndarray:
@@ -155,10 +163,22 @@ def main() -> None:
     if gpu:
         lines += ["", f"goal: 1,000,000 world-steps/s ({'met' if rate >= 1e6 else 'not met'} at the largest row)"]
         print(lines[-1])
-    device = "gpu" if gpu else "cpu"
-    kind = "_grasp" if args.grasp else ""
-    path = write(f"batch_{args.variant}_{device}{kind}", f"Batch (MuJoCo Warp): {args.variant} on {device}", lines)
+    else:
+        lines += ["", *CPU_NOTE]
+    path = write(
+        page_name(args.variant, gpu, args.grasp), f"Batch (MuJoCo Warp): {args.variant} on {args.device}", lines
+    )
     print(f"wrote {path.relative_to(REPO)}")
+
+
+def page_name(variant: str, gpu: bool, grasp: bool) -> str:
+    """docs/results/batch.md for the default run (svh_right, CPU, random targets); the others beside it."""
+    return (
+        "batch"
+        + ("" if variant == "svh_right" else f"_{variant}")
+        + ("_gpu" if gpu else "")
+        + ("_grasp" if grasp else "")
+    )
 
 
 if __name__ == "__main__":

@@ -30,8 +30,9 @@ INTRO = [
 ]
 
 
-def main() -> None:
-    files = sorted(RESULTS.glob("*.md"))
+def render(results: Path = RESULTS) -> str:
+    """benchmarks/README.md's text: a table of the pages, then each page with its headings one level down."""
+    files = sorted(results.glob("*.md"))
     lines = list(INTRO)
     for path in files:
         meta = fields(path.read_text())
@@ -40,8 +41,12 @@ def main() -> None:
     for path in files:
         body = path.read_text().splitlines()
         lines += ["", *["#" + line if line.startswith("#") else line for line in body]]
-    README.write_text("\n".join(lines) + "\n")
-    print(f"wrote {README.relative_to(REPO)} from {len(files)} results files")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    README.write_text(render())
+    print(f"wrote {README.relative_to(REPO)} from {len(list(RESULTS.glob('*.md')))} results files")
 
 
 if __name__ == "__main__":

@@ -40,6 +40,9 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from lxml import etree  # noqa: E402
 
+sys.path.insert(0, str(REPO / "benchmarks"))
+from results import write  # noqa: E402
+
 SITE = Path(np.__file__).resolve().parents[1]  # site-packages, where pip put the robots' wheels
 ERD = SITE / "cmeel.prefix" / "share" / "example-robot-data"
 PYBULLET = SITE / "pybullet_data"
@@ -58,6 +61,7 @@ ROBOTS: dict[str, Path] = {
     "xarm6_pb": PYBULLET / "xarm/xarm6_robot.urdf",
 }
 OUT = REPO / "docs" / "results" / "parity.md"
+TITLE = "Parity: svhdesc beside MuJoCo's URDF importer"
 STEP_TIMEOUT = 900  # s per svhdesc command
 DROP = 2.0  # s the importer's model is left to fall
 
@@ -215,14 +219,12 @@ def mass_cell(mass: float | None, reference: float) -> str:
     return f"{mass:.3f} ({100 * (mass - reference) / reference:+.1f} %)" if reference > 0 else f"{mass:.3f}"
 
 
-def render(rows: list[Row], validate: bool) -> str:
+def render(rows: list[Row], validate: bool) -> list[str]:
     header = "| robot | URDF mass kg | MuJoCo importer: opens, act., eq., mass kg, falls in 2 s | "
     header += "svhdesc: builds | validate | act. | eq. | mass kg | hold drift at home |"
     lines = [
-        "# Parity: svhdesc beside MuJoCo's URDF importer",
-        "",
-        f"Written by `python benchmarks/parity.py` (mujoco {mujoco.__version__}; robots from example-robot-data and "
-        "pybullet_data as pip installed them, unedited). MuJoCo's importer got absolute mesh paths and "
+        f"mujoco {mujoco.__version__}; robots from example-robot-data and "
+        "pybullet_data as pip installed them, unedited. MuJoCo's importer got absolute mesh paths and "
         "`strippath=false`; svhdesc got the config `svhdesc init` wrote, unedited. Mass deviations are against "
         "the URDF's sum of `<inertial><mass>`.",
         "",
@@ -260,7 +262,7 @@ def render(rows: list[Row], validate: bool) -> str:
     built = sum(1 for r in rows if r.svhdesc.get("builds"))
     passed = sum(1 for r in rows if r.svhdesc.get("validate") == "pass")
     lines += ["", f"MuJoCo's importer opened {opened} of {len(rows)}; svhdesc built {built}, validate passed {passed}."]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def main() -> None:
@@ -281,8 +283,8 @@ def main() -> None:
         row = measure(name, ROBOTS[name], not args.no_validate)
         print(f"{name}: importer {row.mujoco} svhdesc {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
         rows.append(row)
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(render(rows, not args.no_validate))  # after each robot: a long run leaves what it did
+        # After each robot: a long run leaves what it did.
+        write(args.out.stem, TITLE, render(rows, not args.no_validate), args.out.parent)
     print(f"wrote {args.out}")
 
 

@@ -8,7 +8,7 @@ the planner's checker (MuJoCo). Each query may take 5 s. Printed: success rate (
 trajectory duration. Then every planned path is re-checked by a checker that shares no code with the
 planner: pinocchio + coal on the URDF's collision meshes with the SRDF's disabled pairs removed, the
 obstacles as coal boxes, the path subdivided until no frame of the robot moves more than 1 cm between two
-checked states. Not a test: machines are noisy.
+checked states. Writes docs/results/plan.md. Not a test: machines are noisy.
 """
 
 from __future__ import annotations
@@ -25,6 +25,9 @@ sys.path.insert(0, str(REPO))
 
 import svhdesc  # noqa: E402
 from svhdesc.plan import Obstacle, Planner, seed_ompl  # noqa: E402
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+from results import write  # noqa: E402
 
 VARIANT = "ur5_svh_right"
 TABLE = Obstacle("table", "box", (0.5, 0.3, 0.02), (0.0, 0.6, -0.02))  # top at z = 0, 0.3 m in front
@@ -145,18 +148,8 @@ def main(count: int = 100, planner_name: str = "RRTConnect") -> None:
     wall = time.perf_counter() - began
     done = [p for p in plans if p.success]
     times = sorted(p.planning_time for p in plans)
-    print(f"{VARIANT} manipulator, {planner_name}, table + box, {count} random collision-free queries")
-    print(f"success: {len(done)}/{count} = {100 * len(done) / count:.1f} % (target >= 95 %)")
-    print(
-        f"planning time: median {statistics.median(times):.3f} s (target <= 0.5 s), "
-        f"90th percentile {times[int(0.9 * (len(times) - 1))]:.3f} s, all queries {wall:.1f} s"
-    )
-    if done:
-        print(
-            f"path length: median {statistics.median(p.path_length for p in done):.2f} rad; "
-            f"trajectory duration: median {statistics.median(p.duration for p in done):.1f} s "
-            f"(joint_limits.yaml scaled by its default factors)"
-        )
+    median, p90 = statistics.median(times), times[int(0.9 * (len(times) - 1))]
+    print(f"{len(done)}/{count} solved; planning time median {median:.3f} s, 90th percentile {p90:.3f} s")
     checker = IndependentChecker(obstacles)
     # The checker must see collisions: the straight motion of a query that needed a detour.
     for start, goal in queries:
@@ -168,12 +161,30 @@ def main(count: int = 100, planner_name: str = "RRTConnect") -> None:
             break
     began = time.perf_counter()
     colliding = [i for i, p in enumerate(done) if checker.path_collides(joints, p.waypoints)]
-    print(
-        f"independent re-check (pinocchio + coal, {RESOLUTION * 100:.0f} cm): {len(done) - len(colliding)}/{len(done)} "
-        f"paths collision-free, {checker.checks} states checked in {time.perf_counter() - began:.1f} s "
-        f"({len(checker.constant)} of {len(checker.geometry.collisionPairs)} pairs, rigid in the hand, once per path)"
-        + (f"; colliding: {colliding}" if colliding else "")
-    )
+    recheck = time.perf_counter() - began
+    length = f"{statistics.median(p.path_length for p in done):.1f} rad" if done else "-"
+    duration = f"{statistics.median(p.duration for p in done):.1f} s" if done else "-"
+    body = [
+        f"{count} random collision-free start and goal states of `manipulator` (`{VARIANT}`, uniform within its "
+        f"joint limits) among a table and a box, {planner_name}, 5 s per query ({wall:.0f} s for all):",
+        "",
+        f"| success | planning time, median (target <= 0.5 s) | 90th percentile | path length, median "
+        f"| trajectory, median | independent re-check ({RESOLUTION * 100:.0f} cm) |",
+        "|---|---|---|---|---|---|",
+        f"| {len(done)}/{count} (target >= 95 %) | {median:.3f} s | {p90:.3f} s | {length} | {duration} "
+        f"(joint_limits.yaml's default scaling) | {len(done) - len(colliding)}/{len(done)} paths collision-free, "
+        f"{checker.checks} states, {recheck:.0f} s |",
+        "",
+        "The re-check: pinocchio + coal on the URDF's collision meshes with the SRDF's disabled pairs removed, the",
+        f"path subdivided until no frame moves more than {RESOLUTION * 100:.0f} cm between two checked states; the "
+        f"pairs rigid in the hand ({len(checker.constant)} of {len(checker.geometry.collisionPairs)}) once per path",
+        "([plan.md](/docs/plan.md#benchmark)).",
+    ]
+    if colliding:
+        body += ["", f"Paths the re-check finds colliding (query numbers): {colliding}."]
+    print("\n".join(body))
+    path = write("plan", "Motion planning benchmark", body)
+    print(f"wrote {path.relative_to(REPO)}")
 
 
 if __name__ == "__main__":
