@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -33,7 +32,7 @@ import mujoco  # noqa: E402
 import svhdesc  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
-from results import write  # noqa: E402
+from results import cpu_model, write  # noqa: E402
 
 CPU_NOTE = [
     "On a CPU, Warp is meant for GPUs, not to beat one MuJoCo C thread (the ratio column; all figures move with the",
@@ -113,7 +112,7 @@ def quiet_init(device: str) -> str:
                 os.dup2(copy, fd)
                 os.close(copy)
     if not device.startswith("cuda"):
-        return f"{platform.processor() or platform.machine()} CPU"
+        return cpu_model()
     if not wp.is_cuda_available():
         print(f"error: --device {device}: no CUDA GPU on this machine (Warp finds no driver)", file=sys.stderr)
         raise SystemExit(2)
