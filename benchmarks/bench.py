@@ -47,6 +47,7 @@ def timed(args: list[str], cwd: Path, cache: Path) -> tuple[float, str]:
     elapsed = time.perf_counter() - start
     if result.returncode != 0:
         raise SystemExit(f"{' '.join(args)} failed:\n{result.stderr}")
+    print(f"  svhdesc {' '.join(args)}: {elapsed:.1f} s", flush=True)  # progress: a cold build takes minutes
     counts = re.search(r"decompositions: .*", result.stderr)
     return elapsed, counts.group(0) if counts else ""
 

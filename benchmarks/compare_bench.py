@@ -64,6 +64,8 @@ def table_5_1() -> str:
 DEFAULT_ANALYSIS = """\
 ## What the figures say
 
+(Constant text, read from one full run of the default setup: when a rerun moves the tables above, check it.)
+
 - **MuJoCo at the physical inertials is not "as still as Table 5.2".** Without the rounding floor its average is
   1.8e-12 rad, 4.1e4 times Table 5.2's 4.37e-17 (which the thesis got on a 0.09 kg model); shoulder_pan is at
   8.9e-15 and the average is the index finger's joints, 1.1e-11 to 1.5e-11, whose servo presses at the driver's
@@ -105,6 +107,8 @@ DEFAULT_ANALYSIS = """\
 
 THESIS_ANALYSIS = """\
 ## What the figures say
+
+(Constant text, read from one full run with `--thesis-setup`: when a rerun moves the tables above, check it.)
 
 - **Below 0.1 kg m² only ODE presses the surface with the tip at every setting.** The tip approaches
   sideways (direction (0.90, 0.13, 0.40) in the JSON) and the surface placed 2.5 mm into it also touches the
