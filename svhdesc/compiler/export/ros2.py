@@ -105,7 +105,9 @@ def export_cmakelists(robot: Robot) -> bytes:
         "# The variant folder is the share directory: package:// URIs and the launch files' paths hold in both.",
         'get_filename_component(HERE "${CMAKE_CURRENT_SOURCE_DIR}" REALPATH)',
         'get_filename_component(VARIANT "${HERE}" DIRECTORY)',
-        'install(DIRECTORY "${VARIANT}/" DESTINATION share/${PROJECT_NAME} PATTERN "manifest.json" EXCLUDE)',
+        "# ROS 1's package.xml stays out: ament_package() installs this folder's as share/<package>/package.xml.",
+        'install(DIRECTORY "${VARIANT}/" DESTINATION share/${PROJECT_NAME}',
+        '        PATTERN "manifest.json" EXCLUDE PATTERN "package.xml" EXCLUDE)',
         "ament_package()",
     )
     return ("\n".join(lines) + "\n").encode()
