@@ -2,41 +2,20 @@
 """ros2 launch svh_left moveit.launch.py: move_group with this package's MoveIt 2 config."""
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess, IncludeLaunchDescription
-from launch.conditions import LaunchConfigurationEquals
-from launch.launch_description_sources import PythonLaunchDescriptionSource
-from launch.substitutions import (
-    Command,
-    EnvironmentVariable,
-    FindExecutable,
-    LaunchConfiguration,
-    PathJoinSubstitution,
-    PythonExpression,
-)
+from launch.actions import DeclareLaunchArgument
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
-from launch_ros.substitutions import FindPackageShare
+from moveit_configs_utils import MoveItConfigsBuilder
 
-PACKAGE = 'svh_left'
-URDF_XACRO = 'ros2/urdf/svh_left.urdf.xacro'
-CONTROLLERS = 'ros2/config/ros2_controllers.yaml'
-SRDF = 'ros2/config/svh_left.srdf'
-KINEMATICS = 'ros2/config/kinematics.yaml'
-JOINT_LIMITS = 'ros2/config/joint_limits.yaml'
-MOVEIT_CONTROLLERS = 'ros2/config/moveit_controllers.yaml'
-
-
-def robot_description(share, hardware):
-    """The URDF, xacro-expanded with the ros2_control hardware chosen."""
-    xacro = PathJoinSubstitution([FindExecutable(name="xacro")])
-    command = [xacro, " ", PathJoinSubstitution([share, URDF_XACRO]), " hardware:=", hardware]
-    command += [" controllers:=", PathJoinSubstitution([share, CONTROLLERS])]
-    return {"robot_description": ParameterValue(Command(command), value_type=str)}
+PACKAGE = "svh_left"
+URDF_XACRO = "ros2/urdf/svh_left.urdf.xacro"
+SRDF = "ros2/config/svh_left.srdf"
+KINEMATICS = "ros2/config/kinematics.yaml"
+JOINT_LIMITS = "ros2/config/joint_limits.yaml"
+MOVEIT_CONTROLLERS = "ros2/config/moveit_controllers.yaml"
 
 
 def generate_launch_description():
-    from moveit_configs_utils import MoveItConfigsBuilder
-
     config = (
         MoveItConfigsBuilder(PACKAGE, package_name=PACKAGE)
         .robot_description(file_path=URDF_XACRO, mappings={"hardware": "mock"})
@@ -47,8 +26,14 @@ def generate_launch_description():
         .planning_pipelines(pipelines=["ompl"])
         .to_moveit_configs()
     )
-    return LaunchDescription([
-        DeclareLaunchArgument("use_sim_time", default_value="true"),
-        Node(package="moveit_ros_move_group", executable="move_group", output="screen",
-             parameters=[config.to_dict(), {"use_sim_time": LaunchConfiguration("use_sim_time")}]),
-    ])
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument("use_sim_time", default_value="true"),
+            Node(
+                package="moveit_ros_move_group",
+                executable="move_group",
+                output="screen",
+                parameters=[config.to_dict(), {"use_sim_time": LaunchConfiguration("use_sim_time")}],
+            ),
+        ]
+    )

@@ -2,12 +2,11 @@
 """ros2 launch svh_right sim.launch.py hardware:=mujoco|gazebo|mock: ros2_control and the controllers."""
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess, IncludeLaunchDescription
+from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription
 from launch.conditions import LaunchConfigurationEquals
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from launch.substitutions import (
     Command,
-    EnvironmentVariable,
     FindExecutable,
     LaunchConfiguration,
     PathJoinSubstitution,
@@ -17,13 +16,13 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
-PACKAGE = 'svh_right'
-URDF_XACRO = 'ros2/urdf/svh_right.urdf.xacro'
-CONTROLLERS = 'ros2/config/ros2_controllers.yaml'
-MUJOCO_SCENE = 'ros2/mujoco/scene.xml'
-HARDWARE = ['mujoco', 'gazebo', 'mock']
-DEFAULT_HARDWARE = 'mujoco'
-SPAWN = ['joint_state_broadcaster', 'right_hand']
+PACKAGE = "svh_right"
+URDF_XACRO = "ros2/urdf/svh_right.urdf.xacro"
+CONTROLLERS = "ros2/config/ros2_controllers.yaml"
+MUJOCO_SCENE = "ros2/mujoco/scene.xml"
+HARDWARE = ["mujoco", "gazebo", "mock"]
+DEFAULT_HARDWARE = "mujoco"
+SPAWN = ["joint_state_broadcaster", "right_hand"]
 
 
 def robot_description(share, hardware):
@@ -41,33 +40,71 @@ def generate_launch_description():
     description = robot_description(share, hardware)
     sim_time = {"use_sim_time": LaunchConfiguration("use_sim_time")}
     actions = [
-        DeclareLaunchArgument("hardware", default_value=DEFAULT_HARDWARE, choices=HARDWARE,
-                              description="ros2_control hardware: MuJoCo, Gazebo (gz) or mock components"),
-        DeclareLaunchArgument("use_sim_time", description="the simulator's /clock (mock: wall time)",
-                              default_value=PythonExpression(["'false' if '", hardware, "' == 'mock' else 'true'"])),
-        Node(package="robot_state_publisher", executable="robot_state_publisher", output="screen",
-             parameters=[description, sim_time]),
-        Node(package="mujoco_ros2_control", executable="mujoco_ros2_control", output="screen",
-             parameters=[description, controllers, sim_time,
-                         {"mujoco_model_path": PathJoinSubstitution([share, MUJOCO_SCENE])}],
-             condition=LaunchConfigurationEquals("hardware", "mujoco")),
-        Node(package="controller_manager", executable="ros2_control_node", output="screen",
-             parameters=[controllers, sim_time], condition=LaunchConfigurationEquals("hardware", "mock")),
+        DeclareLaunchArgument(
+            "hardware",
+            default_value=DEFAULT_HARDWARE,
+            choices=HARDWARE,
+            description="ros2_control hardware: MuJoCo, Gazebo (gz) or mock components",
+        ),
+        DeclareLaunchArgument(
+            "use_sim_time",
+            description="the simulator's /clock (mock: wall time)",
+            default_value=PythonExpression(["'false' if '", hardware, "' == 'mock' else 'true'"]),
+        ),
+        Node(
+            package="robot_state_publisher",
+            executable="robot_state_publisher",
+            output="screen",
+            parameters=[description, sim_time],
+        ),
+        Node(
+            package="mujoco_ros2_control",
+            executable="mujoco_ros2_control",
+            output="screen",
+            parameters=[
+                description,
+                controllers,
+                sim_time,
+                {"mujoco_model_path": PathJoinSubstitution([share, MUJOCO_SCENE])},
+            ],
+            condition=LaunchConfigurationEquals("hardware", "mujoco"),
+        ),
+        Node(
+            package="controller_manager",
+            executable="ros2_control_node",
+            output="screen",
+            parameters=[controllers, sim_time],
+            condition=LaunchConfigurationEquals("hardware", "mock"),
+        ),
         IncludeLaunchDescription(
-            PythonLaunchDescriptionSource(PathJoinSubstitution([FindPackageShare("ros_gz_sim"), "launch",
-                                                                "gz_sim.launch.py"])),
+            PythonLaunchDescriptionSource(
+                PathJoinSubstitution([FindPackageShare("ros_gz_sim"), "launch", "gz_sim.launch.py"])
+            ),
             launch_arguments={"gz_args": "-r empty.sdf"}.items(),
-            condition=LaunchConfigurationEquals("hardware", "gazebo")),
-        Node(package="ros_gz_sim", executable="create", output="screen",
-             arguments=["-topic", "robot_description", "-name", PACKAGE],
-             condition=LaunchConfigurationEquals("hardware", "gazebo")),
-        Node(package="ros_gz_bridge", executable="parameter_bridge",
-             arguments=["/clock@rosgraph_msgs/msg/Clock[gz.msgs.Clock"],
-             condition=LaunchConfigurationEquals("hardware", "gazebo")),
+            condition=LaunchConfigurationEquals("hardware", "gazebo"),
+        ),
+        Node(
+            package="ros_gz_sim",
+            executable="create",
+            output="screen",
+            arguments=["-topic", "robot_description", "-name", PACKAGE],
+            condition=LaunchConfigurationEquals("hardware", "gazebo"),
+        ),
+        Node(
+            package="ros_gz_bridge",
+            executable="parameter_bridge",
+            arguments=["/clock@rosgraph_msgs/msg/Clock[gz.msgs.Clock"],
+            condition=LaunchConfigurationEquals("hardware", "gazebo"),
+        ),
     ]
     for controller in SPAWN:
-        actions.append(Node(package="controller_manager", executable="spawner", output="screen",
-                            arguments=[controller, "--controller-manager", "/controller_manager",
-                                       "--param-file", controllers],
-                            parameters=[sim_time]))
+        actions.append(
+            Node(
+                package="controller_manager",
+                executable="spawner",
+                output="screen",
+                arguments=[controller, "--controller-manager", "/controller_manager", "--param-file", controllers],
+                parameters=[sim_time],
+            )
+        )
     return LaunchDescription(actions)

@@ -2,24 +2,21 @@
 """ros2 launch svh_right svhdesc.launch.py: svhdesc's own simulation node (sim --ros2) and TF."""
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess, IncludeLaunchDescription
-from launch.conditions import LaunchConfigurationEquals
-from launch.launch_description_sources import PythonLaunchDescriptionSource
+from launch.actions import DeclareLaunchArgument, ExecuteProcess
 from launch.substitutions import (
     Command,
     EnvironmentVariable,
     FindExecutable,
     LaunchConfiguration,
     PathJoinSubstitution,
-    PythonExpression,
 )
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 from launch_ros.substitutions import FindPackageShare
 
-PACKAGE = 'svh_right'
-URDF_XACRO = 'ros2/urdf/svh_right.urdf.xacro'
-CONTROLLERS = 'ros2/config/ros2_controllers.yaml'
+PACKAGE = "svh_right"
+URDF_XACRO = "ros2/urdf/svh_right.urdf.xacro"
+CONTROLLERS = "ros2/config/ros2_controllers.yaml"
 
 
 def robot_description(share, hardware):
@@ -34,11 +31,19 @@ def generate_launch_description():
     share = FindPackageShare(PACKAGE)
     pace = LaunchConfiguration("pace")
     svhdesc = EnvironmentVariable("SVHDESC", default_value="svhdesc")
-    return LaunchDescription([
-        DeclareLaunchArgument("keyframe", default_value="home", description="start pose (a keyframe of the model)"),
-        DeclareLaunchArgument("pace", default_value="realtime", choices=["realtime", "as-fast"]),
-        ExecuteProcess(cmd=[svhdesc, "sim", PACKAGE, "--ros2", "--keyframe", LaunchConfiguration("keyframe"),
-                            ["--", pace]], output="screen"),
-        Node(package="robot_state_publisher", executable="robot_state_publisher", output="screen",
-             parameters=[robot_description(share, "mock"), {"use_sim_time": True}]),
-    ])
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument("keyframe", default_value="home", description="start pose (a keyframe of the model)"),
+            DeclareLaunchArgument("pace", default_value="realtime", choices=["realtime", "as-fast"]),
+            ExecuteProcess(
+                cmd=[svhdesc, "sim", PACKAGE, "--ros2", "--keyframe", LaunchConfiguration("keyframe"), ["--", pace]],
+                output="screen",
+            ),
+            Node(
+                package="robot_state_publisher",
+                executable="robot_state_publisher",
+                output="screen",
+                parameters=[robot_description(share, "mock"), {"use_sim_time": True}],
+            ),
+        ]
+    )
