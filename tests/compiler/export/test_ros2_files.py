@@ -14,6 +14,7 @@ from __future__ import annotations
 import ast
 import copy
 import functools
+import io
 import sys
 import types
 from pathlib import Path
@@ -134,6 +135,10 @@ def test_ros2_control_expands_and_passes_the_component_parsers_checks(variant: s
     )
     assert {j.get("name") for j in systems[0].iterfind("joint[@mimic='true']")} == mimic and len(mimic) == 11
     assert all(kinds == {"position"} for kinds in commands.values())
+    if hardware == "mock" and "ur5" in variant:  # a URDF parser of its own: the non-mimic joints are the commanded
+        yourdfpy = pytest.importorskip("yourdfpy")
+        parsed = yourdfpy.URDF.load(io.BytesIO(etree.tostring(urdf)), load_meshes=False)
+        assert parsed.validate() and set(parsed.actuated_joint_names) == set(commands)
     gazebo = urdf.findall("gazebo/plugin[@filename='gz_ros2_control-system']")
     assert len(gazebo) == (hardware == "gazebo")
     assert not urdf.findall("transmission") and not urdf.xpath("gazebo/plugin[contains(@filename, 'libgazebo')]")
