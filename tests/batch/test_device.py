@@ -1,9 +1,9 @@
 """svhdesc.batch.device: Warp starts without its chatter, and a device the machine lacks is one clear error.
 
-Seeded faults: the CUDA check in ``warp_device`` removed (Warp's own RuntimeError, with its traceback, reaches the
-caller: the first test fails on a machine without a GPU); the notice filter in ``quiet_init`` removed (the second
-and third fail); ``wp.config.quiet`` left unset (the banner and the ``Module ... load`` line reach the output: the
-third fails).
+Seeded faults: the CUDA check in ``warp_device`` removed (Warp's get_device raises its own RuntimeError and writes
+native "Warp CUDA error" lines: the first test fails on a machine without a GPU); the notice filter in
+``quiet_init`` removed (the second and third fail); ``wp.config.quiet`` left unset (the banner and the
+``Module ... load`` line reach the output: the third fails).
 """
 
 from __future__ import annotations
