@@ -96,27 +96,18 @@ def warp_rate(model: mujoco.MjModel, grasp: bool, nworld: int, device: str, step
 
 
 def quiet_init(device: str) -> str:
-    """Start Warp without its banner or its native 'no CUDA driver' warning; the device's name, or exit 2."""
+    """Start Warp quietly (svhdesc.batch.device); the device's name, or exit 2 where there is no such device."""
     import warp as wp
 
-    wp.config.quiet = True
-    sys.stdout.flush()
-    saved = {fd: os.dup(fd) for fd in (1, 2)}
-    with open(os.devnull, "w") as null:
-        for fd in saved:
-            os.dup2(null.fileno(), fd)
-        try:
-            wp.init()
-        finally:
-            for fd, copy in saved.items():
-                os.dup2(copy, fd)
-                os.close(copy)
-    if not device.startswith("cuda"):
-        return cpu_model()
-    if not wp.is_cuda_available():
-        print(f"error: --device {device}: no CUDA GPU on this machine (Warp finds no driver)", file=sys.stderr)
-        raise SystemExit(2)
-    return wp.get_device(device).name
+    from svhdesc.batch.device import warp_device
+    from svhdesc.errors import SvhdescError
+
+    try:
+        found = warp_device(wp, device)
+    except SvhdescError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    return found.name if device.startswith("cuda") else cpu_model()
 
 
 def main() -> None:

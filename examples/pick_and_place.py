@@ -29,6 +29,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from svhdesc.errors import SvhdescError  # noqa: E402
 from svhdesc.plan import Planner  # noqa: E402
 from svhdesc.plan.execute import current_positions, execute, ros_node  # noqa: E402
 from svhdesc.sim.objects import Obstacle, load_obstacles  # noqa: E402
@@ -44,6 +45,7 @@ ROLL, PITCH, YAW = 0.0, math.pi / 2, 0.0
 APPROACH = 0.08  # m: pre-grasp stand-off, palm back along -y
 PLACE_PRESS = 0.004  # m: put the can down this far into the table, so it stands when released
 HAND = "right_hand_controller"
+START_SIM = f"svhdesc sim {VARIANT} --ros --scene examples/pick_and_place.yaml --track {OBJECT}"
 POWER_GRASP = {  # channel targets beyond contact: the servos squeeze until their force limits
     "right_hand_Index_Finger_Proximal": 0.79,
     "right_hand_Index_Finger_Distal": 1.33,
@@ -67,6 +69,11 @@ def tool_pose(object_centre: np.ndarray) -> tuple[float, ...]:
 class PickAndPlace:
     def __init__(self, pictures: Path | None = None) -> None:
         self.rospy = ros_node()
+        import rosgraph
+
+        topics = {topic for topic, _ in rosgraph.Master("/pick_and_place").getPublishedTopics("")}
+        if f"/tracked/{OBJECT}" not in topics:
+            raise SvhdescError(f"the simulation is not running (no /tracked/{OBJECT} topic): start {START_SIM}")
         obstacles = load_obstacles(SCENE)
         self.table = next(o for o in obstacles if o.mass is None)
         self.can = next(o for o in obstacles if o.name == OBJECT)
@@ -210,7 +217,13 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None, help="write the report here")
     args = parser.parse_args()
     began = time.perf_counter()
-    report = PickAndPlace(args.pictures).run()
+    try:
+        report = PickAndPlace(args.pictures).run()
+    except SvhdescError as exc:  # no master, no simulation, no ROS: one line saying what to start, no traceback
+        if str(exc).startswith("no ROS master"):  # ros_node's line, with this example's scene
+            exc = SvhdescError(f"{str(exc).partition(': start')[0]}: start roscore, then {START_SIM}")
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
     for line in report["steps"]:
         print(line)
     print(

@@ -426,7 +426,7 @@ def validate_command(
         options = replace(options, vendor_meshes=vendor_meshes)
     reports = []
     for urdf, mjcf in pairs:
-        report = validate_files(urdf, mjcf, options, selected, config_path)
+        report = validate_files(urdf, mjcf, options, selected, config_path, _stage_line)
         click.echo(render_report(report) + "\n")
         reports.append(report)
     if json_path is not None:
@@ -438,6 +438,11 @@ def validate_command(
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
     click.echo(all_passed(reports))
+
+
+def _stage_line(line: str) -> None:
+    """A long command's progress: on stderr, so that its output (a table, a report) stays clean."""
+    click.echo(f"  {line}", err=True)
 
 
 @main.command("render")

@@ -107,6 +107,35 @@ CONTROLLER_TYPES = {
     "hand": "position_controllers/JointTrajectoryController",
 }
 
+# --- ROS 2 (Jazzy): SCHUNK's schunk_svh_ros_driver (branch ros2, cfg/schunk_svh_driver.yaml, urdf/
+# schunk_svh_driver.xacro) and ur_robot_driver ROS 2 (config/ur_controllers.yaml, ur5_update_rate.yaml).
+# The hand's controller is named after its side (`right_hand`), the arm's `scaled_joint_trajectory_controller`;
+# both run at the controller manager's 125 Hz. ROS 2's SVH joints are `Right_Hand_<X>` where ROS 1's are
+# `right_hand_<X>` (the driver's xacro calls the svh macro with name="Right_Hand"); the arm's are unchanged.
+ROS2_ARM_CONTROLLER = "scaled_joint_trajectory_controller"
+ROS2_JOINT_STATE_BROADCASTER = "joint_state_broadcaster"
+ROS2_UPDATE_RATE = 125
+ROS2_HAND_PREFIXES = {"right_hand_": "Right_Hand_", "left_hand_": "Left_Hand_"}
+# Each controller's constraints: SCHUNK's yaml declares none (JTC's defaults); ur_controllers.yaml sets the arm's.
+ROS2_CONSTRAINTS = {
+    "hand": dict(JTC_DEFAULTS),
+    "arm": {"goal": 0.1, "trajectory": 0.2, "goal_time": 0.0, "stopped_velocity_tolerance": 0.2},
+}
+
+
+def ros2_joint_name(name: str) -> str:
+    """A joint's name under SCHUNK's ROS 2 driver: ``right_hand_Pinky`` -> ``Right_Hand_Pinky``; others unchanged."""
+    for ros1, ros2 in ROS2_HAND_PREFIXES.items():
+        if name.startswith(ros1):
+            return ros2 + name[len(ros1) :]
+    return name
+
+
+def ros2_hand_controller(prefix: str) -> str:
+    """``right_hand`` (the ROS 1 joints' prefix) -> the ROS 2 driver's controller ``right_hand``."""
+    return prefix.lower()
+
+
 # --- The batch model (svhdesc.batch, MuJoCo Warp / MJX): what its exporter promises, what validate holds it to ---
 
 BATCH_SCENE_FILE = "scene_batch.xml"

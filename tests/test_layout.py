@@ -1,7 +1,8 @@
 """The package's layout rules: two wings, one contract between them, and the floor it stands on.
 
 - runtime packages and validate, the contract (svhdesc/model.py) and the floor both wings read (svhdesc/core/)
-  import nothing of svhdesc.compiler (cli.py alone drives both wings);
+  import nothing of svhdesc.compiler (cli.py alone drives both wings); the floor imports neither the contract nor
+  the runtime;
 - no module of the package imports its face (``import svhdesc``, ``from svhdesc import get``): the face is for
   users; a module imports the module that defines a name (svhdesc.model), so the face can import anything;
 - no import cycle between svhdesc's modules (lazy and type-checking imports count: a cycle is a tangle either way);
@@ -96,6 +97,9 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
         if wing in NO_COMPILER and reaches_compiler:
             way = "go through svhdesc.model" if wing in RUNTIME else "what both wings read belongs in svhdesc.core"
             problems.append(f"{module}:{line}: imports the compiler ({target}); {way}")
+        above = target.split(".")[1] if "." in target else ""
+        if wing == "core" and (above == "model" or above in RUNTIME):
+            problems.append(f"{module}:{line}: svhdesc.core imports {target}; the floor imports nothing above it")
         if module not in FRONT and imports_face(target, name):
             problems.append(f"{module}:{line}: imports the package face svhdesc; import svhdesc.model (or the module)")
         private = private_owner(target, name)
@@ -208,6 +212,8 @@ def test_every_runtime_package_exists() -> None:
         ("from svhdesc.compiler.stages.geometry import bake_meshes\n", "svhdesc.model", "imports the compiler"),
         ("def f():\n    from svhdesc.compiler.build import builder\n", "svhdesc.model", "imports the compiler"),
         ("from svhdesc.compiler.stages import world\n", "svhdesc.core.settings.schema", "imports the compiler"),
+        ("from svhdesc.model import get\n", "svhdesc.core.manifest", "imports nothing above it"),
+        ("def f():\n    from svhdesc.sim import Simulation\n", "svhdesc.core.frames", "imports nothing above it"),
         ("from svhdesc import get\n", "svhdesc.loaders.mujoco", "imports the package face"),
         ("def f():\n    import svhdesc\n", "svhdesc.plan.ik", "imports the package face"),
         ("from .. import get\n", "svhdesc.sim.runtime", "imports the package face"),
@@ -232,6 +238,7 @@ def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -
     [
         ("from svhdesc.core.source.packages import local_mesh_path\n", "svhdesc.model"),
         ("from svhdesc.core.settings.schema import Mount\n", "svhdesc.compiler.stages.world"),
+        ("from svhdesc.errors import SvhdescError\nfrom svhdesc.ir import Robot\n", "svhdesc.core.source.urdf"),
         ("from svhdesc.compiler.build import builder\n", "svhdesc.cli"),
         ("def f():\n    import svhdesc\n", "svhdesc.cli"),
         ("from svhdesc import loaders\n", "svhdesc"),

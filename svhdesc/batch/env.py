@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.batch.device import warp_device
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
 
@@ -68,7 +69,7 @@ class BatchEnv:
         self.njmax = int(njmax if njmax is not None else model.njmax)
         if self.nconmax < 0 or self.njmax < 0:
             raise SvhdescError("the model states no <size nconmax njmax>: pass nconmax= and njmax= to make()")
-        self.device = self.wp.get_device(device)
+        self.device = warp_device(self.wp, device)
         self.fingertips = fingertip_bodies(model)
         self.fingertip_names = [model.body(b).name for b in self.fingertips]
         self._touch = touch_addresses(model)

@@ -8,7 +8,8 @@ plan.success, plan.planning_time, plan.joint_names, plan.times, plan.positions
 ```
 
 Reads only the generated MoveIt config (SRDF, joint_limits.yaml, kinematics.yaml, moveit_controllers.yaml),
-the URDF (position limits, IK) and the model's MJCF geometry (collision checking with MuJoCo).
+the URDF (position limits, IK) and the simulation's scene.xml (the robot's MJCF with the floor and pedestal:
+collision checking with MuJoCo, docs/planning.md).
 """
 
 from __future__ import annotations

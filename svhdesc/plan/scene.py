@@ -1,5 +1,6 @@
 """Collision checking for the planner with MuJoCo's collision detection on the model's collision geoms
-(the same convex hulls the simulation uses), plus obstacles (boxes, cylinders) in the world.
+(the same convex hulls the simulation uses), in the scene the simulation loads (scene.xml: the floor and, for an
+arm, its pedestal), plus obstacles (boxes, cylinders) in the world.
 
 MoveIt's rules, not the simulator's: the MJCF's own <exclude> pairs and MuJoCo's parent-child filter are
 dropped, and only the SRDF's disable_collisions pairs are skipped. Coupled joints follow their channels
@@ -31,7 +32,9 @@ class CollisionScene:
     def __init__(self, variant: str, config: MoveItConfig, obstacles: Sequence[Obstacle] = ()) -> None:
         mujoco = require("mujoco", "planning", "sim")
         self._mj = mujoco
-        spec = mujoco.MjSpec.from_file(str(get(variant).mjcf_path))
+        # The simulation's own scene (svhdesc.sim.runtime.Simulation loads it too): what `plan --execute` runs in.
+        # Geoms welded to the world (floor, pedestal, the arm's base) never collide with each other in MuJoCo.
+        spec = mujoco.MjSpec.from_file(str(get(variant).scene_path))
         for exclude in list(spec.excludes):
             spec.delete(exclude)
         bodies = {b.name for b in spec.bodies}

@@ -105,14 +105,7 @@ def compare_to_main(main: Any, batch: Any) -> list[str]:
 
 def warp_rollout(model: Any, worlds: int = WARP_WORLDS, steps: int = WARP_STEPS, seed: int = 0) -> dict[str, int]:
     """Step ``worlds`` worlds towards random targets on Warp's CPU device; raises BatchOverflow on a drop."""
-    import warp
-
-    # No banner, no "Module ... load" line per kernel module, no CUDA-driver notice in validate's output
-    # (warp >= 1.19 has a log level; older ones a quiet flag). An error still shows.
-    warp.config.quiet = True
-    if hasattr(warp, "LOG_ERROR"):
-        warp.config.log_level = warp.LOG_ERROR
-    from svhdesc.batch import BatchEnv
+    from svhdesc.batch import BatchEnv  # starts Warp quietly (svhdesc.batch.device)
 
     env = BatchEnv(model, worlds, "cpu")
     env.reset("home")

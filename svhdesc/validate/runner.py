@@ -84,13 +84,21 @@ def select_checks(requested: list[str] | tuple[str, ...]) -> set[str]:
     return selected
 
 
-def validate_pair(pair: ModelPair, options: Options, selected: set[str] | None = None) -> VariantReport:
+Progress = Callable[[str], None]
+
+
+def validate_pair(
+    pair: ModelPair, options: Options, selected: set[str] | None = None, progress: Progress | None = None
+) -> VariantReport:
+    """Run the selected checks; ``progress`` is told each stage's checks as it starts, with the time so far."""
     selected = set(CHECK_NAMES) if selected is None else selected
     report = VariantReport(pair.name, str(pair.urdf_path), str(pair.mjcf_path))
     started = time.perf_counter()
-    for stage, names in STAGES:
-        if not selected.intersection(names):
-            continue
+    stages = [(stage, names) for stage, names in STAGES if selected.intersection(names)]
+    for number, (stage, names) in enumerate(stages, 1):
+        if progress is not None:
+            doing = ", ".join(name for name in names if name in selected)
+            progress(f"{pair.name} [{number}/{len(stages)}, {time.perf_counter() - started:.0f} s] {doing}")
         try:
             checks = stage(pair, options)
         except Exception as exc:  # a checker bug must show as a failed check, not hide the other results
@@ -133,6 +141,11 @@ def built_variants(out: Path, names: list[str] | tuple[str, ...]) -> list[tuple[
 
 
 def validate_files(
-    urdf: Path, mjcf: Path, options: Options, selected: set[str], config_path: Path | None = None
+    urdf: Path,
+    mjcf: Path,
+    options: Options,
+    selected: set[str],
+    config_path: Path | None = None,
+    progress: Progress | None = None,
 ) -> VariantReport:
-    return validate_pair(load_pair(urdf, mjcf, config_path=config_path), options, selected)
+    return validate_pair(load_pair(urdf, mjcf, config_path=config_path), options, selected, progress)

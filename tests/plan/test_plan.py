@@ -107,6 +107,41 @@ def test_a_goal_in_collision_fails_cleanly(planner: Planner) -> None:
     assert not plan.success and "goal state in collision" in plan.message
 
 
+def _floor_state(planner: Planner, wrist_1: float) -> dict[str, float]:
+    """The arm stretched out at base height, 0.1 rad down; the hand's pitch set by wrist_1: at -2.2 and -0.4 it
+    points sideways (clear), around -1.3 down into the simulation's floor (0.3 m below the base)."""
+    state = planner.resolve("manipulator", "home")
+    state.update(shoulder_lift_joint=0.1, elbow_joint=0.0, wrist_1_joint=wrist_1)
+    return state
+
+
+def test_the_simulations_floor_is_in_the_planners_scene(planner: Planner) -> None:
+    """The planner checks against scene.xml, what `svhdesc sim` (and so `plan --execute`) runs: a goal in its floor
+    is refused and a motion whose straight path dips into the floor goes around it. Seeded fault: the floor and
+    pedestal dropped from the planner's scene (contype 0), the same goal is accepted and the straight path passes."""
+    model = planner.scene.model
+    world = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0]
+    assert {model.geom(g).name for g in world} == {"floor", "pedestal"}
+    start, clear, under = (_floor_state(planner, w) for w in (-2.2, -0.4, -1.3))
+    refused = planner.plan("manipulator", start, goal=under)
+    assert not refused.success and "goal state in collision: world-" in refused.message
+    plan = planner.plan("manipulator", start, goal=clear, timeout=10.0)
+    assert plan.success, plan.message
+    joints = plan.joint_names
+    straight = type(
+        "P", (), {"joint_names": joints, "waypoints": [[start[j] for j in joints], [clear[j] for j in joints]]}
+    )
+    assert not _swept_valid(planner, straight, start)  # the direct motion hits the floor...
+    assert len(plan.waypoints) > 2 and _swept_valid(planner, plan, start)  # ...the plan does not
+    saved = model.geom_contype[world].copy(), model.geom_conaffinity[world].copy()
+    try:
+        model.geom_contype[world] = model.geom_conaffinity[world] = 0
+        assert planner.plan("manipulator", start, goal=under).success
+        assert _swept_valid(planner, straight, start)
+    finally:
+        model.geom_contype[world], model.geom_conaffinity[world] = saved
+
+
 def test_cli_writes_json_and_refuses_bad_input(tmp_path: Path) -> None:
     out = tmp_path / "plan.json"
     result = run_cli("plan", VARIANT, "--group", "manipulator", "--from", "home", "--to", "test", "--json", str(out))

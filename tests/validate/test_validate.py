@@ -8,6 +8,7 @@ kinematic samples (--checks, --samples) to keep the suite quick; one run exercis
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import struct
 import subprocess
@@ -208,6 +209,14 @@ def test_unmodified_pair_passes_the_static_checks(tmp_path: Path) -> None:
     result, checks = validate_pair(urdf, mjcf, tmp_path, "--checks", STATIC, "--samples", "20")
     assert result.returncode == 0, result.stdout + result.stderr
     assert set(checks) == set(STATIC.split(",")) and all(c["status"] == "pass" for c in checks.values())
+    from svhdesc.validate import CHECK_NAMES
+
+    # Progress on stderr, one line per stage as it starts, in the order they run; none of it in the table on stdout.
+    # (Seeded: the lines echoed to stdout, or one stage left unannounced, fails here.)
+    stages = re.findall(rf"^  {VARIANT} \[(\d+)/(\d+), \d+ s\] (\w+)$", result.stderr, re.MULTILINE)
+    assert [name for *_, name in stages] == [n for n in CHECK_NAMES if n in STATIC.split(",")]
+    assert [int(i) for i, *_ in stages] == list(range(1, len(stages) + 1)) and {n for _, n, _ in stages} == {"8"}
+    assert f"{VARIANT} [" not in result.stdout
 
 
 @pytest.mark.slow

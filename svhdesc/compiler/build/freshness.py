@@ -44,10 +44,13 @@ def fingerprint_of(package: Path) -> str:
 
 RUNTIME = {"validate", "loaders", "sim", "ros1", "ros2", "control", "plan", "compare", "wireloop", "batch"}
 FRONT = {"cli.py", "__init__.py", "extras.py", "paths.py", "offscreen.py"}
+# An installed wheel ships the models and their sources inside the package; the models' Python files (the ROS 2
+# launch files) are outputs, not code.
+SHIPPED = {"generated", "source"}
 
 
 def makes_models(relative: Path) -> bool:
-    return relative.parts[0] not in RUNTIME | FRONT
+    return relative.parts[0] not in RUNTIME | FRONT | SHIPPED
 
 
 def svhdesc_version() -> str:

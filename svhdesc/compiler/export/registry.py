@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
-from svhdesc.compiler.export import batch
+from svhdesc.compiler.export import batch, launch2, ros2, ros2_control
 from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
 from svhdesc.compiler.export.moveit import (
     export_joint_limits,
@@ -55,6 +55,11 @@ class Built:
         model = mujoco.MjModel.from_xml_string(self.mjcf.decode(), files)
         return {model.actuator(a).name: float(-model.actuator_biasprm[a, 2]) for a in range(model.nu)}
 
+    @cached_property
+    def ros2(self) -> Robot:
+        """The robot as the ROS 2 files name it (hand joints as SCHUNK's ROS 2 driver names them)."""
+        return ros2.ros2_robot(self.robot)
+
 
 def _always(robot: Robot) -> bool:
     return True
@@ -98,6 +103,25 @@ OUTPUTS: tuple[Output, ...] = (
     Output("config/moveit_controllers.yaml", lambda b: export_moveit_controllers(b.robot), _moveit),
     Output("config/ros_controllers.yaml", lambda b: export_ros_controllers(b.robot, b.damping), _moveit),
     Output("launch/moveit.launch", lambda b: export_moveit_launch(b.robot), _moveit),
+    # ROS 2 (Jazzy): an ament package in ros2/ whose share directory is the variant folder.
+    Output("ros2/package.xml", lambda b: ros2.export_package_xml(b.ros2, b.version)),
+    Output("ros2/CMakeLists.txt", lambda b: ros2.export_cmakelists(b.ros2)),
+    Output("ros2/urdf/{robot}.urdf.xacro", lambda b: ros2_control.export_urdf_xacro(b.ros2)),
+    Output("ros2/urdf/{robot}.ros2_control.xacro", lambda b: ros2_control.export_ros2_control(b.ros2)),
+    Output("ros2/mujoco/{robot}.xml", lambda b: ros2_control.export_mujoco_model(b.ros2)),
+    Output("ros2/mujoco/scene.xml", lambda b: ros2_control.export_mujoco_scene(b.ros2)),
+    Output("ros2/config/ros2_controllers.yaml", lambda b: ros2.export_controllers(b.ros2)),
+    Output("ros2/launch/sim.launch.py", lambda b: launch2.export_sim_launch(b.ros2)),
+    Output("ros2/launch/svhdesc.launch.py", lambda b: launch2.export_svhdesc_launch(b.ros2)),
+    Output(
+        "ros2/config/{robot}.srdf",
+        lambda b: export_srdf(b.ros2, cached_collision_matrix(b.robot, b.assets)),
+        _moveit,
+    ),
+    Output("ros2/config/kinematics.yaml", lambda b: export_kinematics(b.ros2), _moveit),
+    Output("ros2/config/joint_limits.yaml", lambda b: export_joint_limits(b.ros2), _moveit),
+    Output("ros2/config/moveit_controllers.yaml", lambda b: ros2.export_moveit_controllers(b.ros2), _moveit),
+    Output("ros2/launch/moveit.launch.py", lambda b: launch2.export_moveit_launch(b.ros2), _moveit),
     Output(batch_model_file("{robot}"), _batch_model, stage="batch"),
     Output(BATCH_SCENE_FILE, lambda b: batch.export_batch_scene(b.robot), stage="batch"),
 )

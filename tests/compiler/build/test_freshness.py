@@ -40,3 +40,15 @@ def test_a_change_rebuilds_only_where_it_makes_models(tmp_path: Path, module: st
     with (copy / module).open("a") as handle:
         handle.write("\n# changed\n")
     assert (freshness.fingerprint_of(copy) != before) is makes_models
+
+
+def test_the_models_a_wheel_ships_in_the_package_are_not_code(tmp_path: Path) -> None:
+    """An installed wheel holds generated/ (with the ROS 2 launch files) inside svhdesc/: they are outputs.
+    Seeded fault: without SHIPPED in makes_models the fingerprint changes."""
+    copy = tmp_path / "svhdesc"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    before = freshness.fingerprint_of(copy)
+    launch = copy / "generated" / "ur5_svh_right" / "ros2" / "launch" / "sim.launch.py"
+    launch.parent.mkdir(parents=True)
+    launch.write_text("PACKAGE = 'ur5_svh_right'\n")
+    assert freshness.fingerprint_of(copy) == before
