@@ -13,8 +13,10 @@ side with its fingers horizontal, and the fingers and the thumb close round the 
 down: gravity pulls it towards the thumb, one of the three directions the validator holds the grasp in. The can
 sits 2.5 cm nearer the thumb than the validated cylinder (SHIFT), or the opposed thumb would meet the table. Hand
 goals succeed where the fastest channels stop, as SCHUNK's driver's do (it declares no goal constraints); the
-example waits until the hand is still before it plans. To let go it first stops the squeeze, then opens. The can
-is placed within 2 cm of its target (printed). Planning ignores the carried can (MoveIt would attach it).
+example waits until the hand is still before it plans. The ring finger and the pinky close last. The can is put
+down where it is in the hand (tracked, tool0 by forward kinematics), its base on the target; to let go the hand
+first stops the squeeze, then opens. The can is placed within 2 cm of its target (printed). Planning ignores the
+carried can (MoveIt would attach it). Documentation: docs/pick_and_place.md.
 """
 
 from __future__ import annotations
@@ -45,8 +47,9 @@ LIFT, CARRY = 0.10, np.array([-0.30, 0.0, 0.0])
 CLEAR = 0.16  # m: after letting go the hand rises this far, the opposed thumb above the can's top, then backs off
 GRASP = "power"  # a grasp of the config's `grasps` (object placement) and `keyframes` (channel targets)
 PRESHAPED = ("Thumb_Opposition", "Finger_Spread")  # set before the approach, as the grasp validator does
-# m, hand frame: the can 2.5 cm nearer the thumb than the validated cylinder, the hand that much higher: coming in,
-# the opposed thumb reaches 1.5 cm below the cylinder's place (it closes higher)
+LATE = ("Ring_Finger", "Pinky")  # closed after the others
+# m, hand frame: the can 2.5 cm nearer the thumb than the validated cylinder, so the hand 2.5 cm higher: at the
+# validated place the preshaped thumb would reach 1.5 cm below the can's base, into the table
 SHIFT = np.array([-0.025, 0.0, 0.0])
 TOOL, HAND_BASE = "tool0", "right_hand_base_link"
 # Tool0 orientation: fingers along world -x, palm facing +y (away from the robot), thumb down: gravity pulls the
@@ -112,13 +115,15 @@ class PickAndPlace:
     def moment(self, name: str) -> None:
         self.moments.append({"name": name, "joints": current_positions(), "object": self.object_pose()})
 
-    def move(self, planner: Planner, centre: np.ndarray, label: str) -> None:
+    def move(self, planner: Planner, centre: np.ndarray, label: str, held: np.ndarray | None = None) -> None:
+        """Plan and execute tool0 to where the can's centre is at ``centre`` when at ``held`` in the tool frame
+        (default: where the grasp puts it)."""
         config = planner.config
         here = {j: v for j, v in current_positions().items() if j not in config.passive}
         plan = planner.plan(
             "manipulator",
             here,
-            pose=tool_pose(centre, self.held),
+            pose=tool_pose(centre, self.held if held is None else held),
             velocity_scaling=SCALING,
             acceleration_scaling=SCALING,
         )
@@ -177,13 +182,20 @@ class PickAndPlace:
         self.hand(preshape, 1.0)  # the thumb turns into opposition before the hand comes near the can
         self.move(with_can, start - np.array([0.0, APPROACH, 0.0]), "pre-grasp")
         self.move(table_only, start, "approach")
-        self.hand(self.targets, 1.5)
+        # The ring finger and the pinky last: closing together at the channels' ramped rates, the ring finger meets
+        # the middle finger (the opposed thumb folds the palm) and stops it at 0.07 rad, short of the can.
+        self.hand({j: 0.0 if j.endswith(LATE) else v for j, v in self.targets.items()}, 1.5)
+        self.hand(self.targets, 1.0)
         self.moment("grasp")
         self.move(table_only, start + np.array([0.0, 0.0, LIFT]), "lift 10 cm")
         self.moment("lifted")
         self.move(table_only, start + CARRY + np.array([0.0, 0.0, LIFT]), "carry 30 cm")
         self.moment("carried")
-        self.move(table_only, target - np.array([0.0, 0.0, PLACE_PRESS]), "put down")
+        # Down to where the can is in the hand now, as MoveIt would place an attached object: the fingers pull it in
+        # and tilt it as they close, and released, it stands up on its base, so its base goes onto the target.
+        held, axis = in_tool(table_only, self.moments[-1]), can_axis(self.moments[-1]["object"][3:])
+        base_on_target = target + self.can.size[1] * (axis - np.array([0.0, 0.0, 1.0]))
+        self.move(table_only, base_on_target - np.array([0.0, 0.0, PLACE_PRESS]), "put down", held)
         # Let go: first stop squeezing (a goal where the fingers stopped on the can), then open to the preshape, the
         # thumb unflexed and still opposed. Opening from the squeeze flings the can 2 cm towards the palm.
         positions = current_positions()
@@ -214,20 +226,28 @@ class PickAndPlace:
         return report
 
 
+def can_axis(quaternion: list[float]) -> np.ndarray:
+    """The can's axis in the world (its z axis rotated by the tracked quaternion w, x, y, z)."""
+    w, x, y, z = quaternion
+    return np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+
+
+def in_tool(planner: Planner, moment: dict[str, Any]) -> np.ndarray:
+    """Where the can was in tool0's frame at ``moment`` (m), tool0 posed from the recorded joints (pinocchio, the
+    URDF)."""
+    tool = planner.kinematics().tip_pose("manipulator", moment["joints"])
+    return tool[:3, :3].T @ (np.array(moment["object"][:3]) - tool[:3, 3])
+
+
 def slip_in_hand(planner: Planner, moments: list[dict[str, Any]]) -> float:
-    """How far the can moved in tool0's frame from the grasp to the end of the carry (m), tool0 posed from the
-    recorded joints (pinocchio, the URDF)."""
-    kinematics = planner.kinematics()
-    in_tool = {}
-    for moment in moments:
-        tool = kinematics.tip_pose("manipulator", moment["joints"])
-        in_tool[moment["name"]] = tool[:3, :3].T @ (np.array(moment["object"][:3]) - tool[:3, 3])
-    return float(max(np.linalg.norm(in_tool[n] - in_tool["grasp"]) for n in ("lifted", "carried")))
+    """How far the can moved in tool0's frame from the grasp to the end of the carry (m)."""
+    at = {moment["name"]: in_tool(planner, moment) for moment in moments}
+    return float(max(np.linalg.norm(at[name] - at["grasp"]) for name in ("lifted", "carried")))
 
 
 def render_moments(moments: list[dict[str, Any]], out: Path) -> list[Path]:
     """A PNG per moment (pick_and_place_<moment>.png): the scene with the objects, posed from /joint_states and
-    the tracked can, every picture from one camera."""
+    the tracked can, every picture from one camera; and the grasp close up (pick_and_place_hand.png)."""
     import tempfile
 
     import mujoco
@@ -248,10 +268,14 @@ def render_moments(moments: list[dict[str, Any]], out: Path) -> list[Path]:
         qpos[free : free + 7] = moment["object"]
         spec.add_key(name=moment["name"], qpos=qpos.tolist())
     pictures = [(moment["name"], out / f"pick_and_place_{moment['name']}.png") for moment in moments]
+    closeup = out / "pick_and_place_hand.png"
     with tempfile.TemporaryDirectory() as folder:
         scene = Path(folder) / "pick_and_place.xml"
         scene.write_text(spec.to_xml())
         render_many(scene, pictures, (640, 480), view=(-60.0, -20.0))  # from beyond the table: palm, thumb and can
+        if "grasp" in {moment["name"] for moment in moments}:  # the hand on the can, from the palm's side
+            render_many(scene, [("grasp", closeup)], (640, 480), view=(-120.0, -15.0), focus=(HAND_BASE, OBJECT))
+            pictures.append(("grasp", closeup))
     return [path for _, path in pictures]
 
 

@@ -6,6 +6,7 @@ The picture is drawn by a child process (``python -m svhdesc.validate.render``) 
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -49,11 +50,13 @@ def render_many(
     size: tuple[int, int],
     view: tuple[float, float] | None = None,
     studio: bool = True,
+    focus: tuple[str, ...] = (),
 ) -> str:
     """A picture per (keyframe, file) of ``target``, all from one camera that frames every pose ('' is 'home'
     if the model has it, else the model's reference pose), looking from ``view`` (azimuth, elevation in degrees;
     default the scene's), in the light studio (``svhdesc.offscreen.stage``) or, without ``studio``, in the
-    scene's own backdrop, floor and lights; returns the GL backend used."""
+    scene's own backdrop, floor and lights. With ``focus`` (body names), the camera frames those bodies and
+    everything they carry, not the whole scene. Returns the GL backend used."""
     require("mujoco", "'svhdesc render'", "sim")  # before blaming OpenGL for a missing package
     import mujoco
 
@@ -68,24 +71,40 @@ def render_many(
             raise SvhdescError(f"{scene}: no keyframe '{keyframe}' (keyframes: {', '.join(names) or 'none'})")
     for _, out in pictures:
         out.parent.mkdir(parents=True, exist_ok=True)
-    pairs = [item for keyframe, out in pictures for item in (keyframe, str(out))]
-    angles = "" if view is None else f"{view[0]:g},{view[1]:g}"
-    look = "studio" if studio else "scene"
-    command = [sys.executable, "-m", "svhdesc.validate.render", str(scene), f"{size[0]}x{size[1]}", angles, look]
-    command += pairs
-    return run_child(command)
+    request = {
+        "scene": str(scene),
+        "size": list(size),
+        "view": None if view is None else list(view),
+        "studio": studio,
+        "focus": list(focus),
+        "pictures": [[keyframe, str(out)] for keyframe, out in pictures],
+    }
+    return run_child([sys.executable, "-m", "svhdesc.validate.render"], stdin=json.dumps(request))
 
 
-def drawn_points(model: Any, data: Any) -> Any:
-    """World corners of the bounding box of every geom a picture draws (groups 0 and 2), planes left out."""
+def _carried_by(model: Any, body: int, roots: set[int]) -> bool:
+    while body > 0:
+        if body in roots:
+            return True
+        body = int(model.body_parentid[body])
+    return False
+
+
+def drawn_points(model: Any, data: Any, focus: tuple[str, ...] = ()) -> Any:
+    """World corners of the bounding box of every geom a picture draws (groups 0 and 2), planes left out; with
+    ``focus``, only the geoms of those bodies and their descendants."""
     import mujoco
     import numpy as np
 
     plane = int(mujoco.mjtGeom.mjGEOM_PLANE)
+    roots = {int(model.body(name).id) for name in focus}
     geoms = [
         g
         for g in range(model.ngeom)
-        if model.geom_group[g] in (0, 2) and int(model.geom_type[g]) != plane and model.geom_rgba[g][3] > 0
+        if model.geom_group[g] in (0, 2)
+        and int(model.geom_type[g]) != plane
+        and model.geom_rgba[g][3] > 0
+        and (not roots or _carried_by(model, int(model.geom_bodyid[g]), roots))
     ]
     signs = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
     box = model.geom_aabb[geoms]  # centre and half sizes, in the geom's frame
@@ -135,34 +154,37 @@ def _pose(model: Any, data: Any, keyframe: str) -> bool:
     return True
 
 
-def _child(scene: str, size: str, angles: str, look: str, *pairs: str) -> int:
-    """Runs in the child process, with MUJOCO_GL already set by the parent: a picture per (keyframe, file)."""
+def _child() -> int:
+    """Runs in the child process, with MUJOCO_GL already set by the parent: a picture per (keyframe, file) of
+    the request on stdin (render_many's arguments)."""
     import mujoco
     import numpy as np
 
-    width, height = (int(v) for v in size.split("x"))
-    spec = mujoco.MjSpec.from_file(scene)
-    if look == "studio":
+    request = json.loads(sys.stdin.read())
+    width, height = request["size"]
+    spec = mujoco.MjSpec.from_file(request["scene"])
+    if request["studio"]:
         stage(spec)
-    if angles:
-        spec.visual.global_.azimuth, spec.visual.global_.elevation = (float(a) for a in angles.split(","))
+    if request["view"] is not None:
+        spec.visual.global_.azimuth, spec.visual.global_.elevation = request["view"]
     model = spec.compile()
     data = mujoco.MjData(model)
-    points = []
-    for keyframe in pairs[0::2]:
+    focus = tuple(request["focus"])
+    drawn, framed = [], []
+    for keyframe, _ in request["pictures"]:
         if not _pose(model, data, keyframe):
             print(f"no keyframe '{keyframe}'", file=sys.stderr)
             return USER_ERROR
-        points.append(drawn_points(model, data))
-    every = np.concatenate(points)
-    place_floor(model, float(every[:, 2].min()))
+        drawn.append(drawn_points(model, data))
+        framed.append(drawn_points(model, data, focus))
+    place_floor(model, float(np.concatenate(drawn)[:, 2].min()))
     camera = mujoco.MjvCamera()
-    frame(model, every, camera, width, height)
-    for keyframe, out in zip(pairs[0::2], pairs[1::2], strict=True):
+    frame(model, np.concatenate(framed), camera, width, height)
+    for keyframe, out in request["pictures"]:
         _pose(model, data, keyframe)
         draw_png(model, data, camera, Path(out), (width, height))
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(_child(*sys.argv[1:]))
+    sys.exit(_child())
