@@ -2,8 +2,9 @@
 node's action servers, the validated power grasp with the thumb opposed, the can ends within 2 cm of its target,
 standing.
 
-Seeded fault: the grasp without opposition (the example's targets with right_hand_Thumb_Opposition 0.3, as the
-example had it before the validated postures) fails the opposition check."""
+Seeded fault: right_hand_Thumb_Opposition 0.3 in the example's targets (the grasp it had before the validated
+postures) fails it: the example exits 1 (no collision-free IK solution for the pre-grasp, the half-turned thumb
+meets the table). The opposition check catches a grasp that asks the keyframe's opposition and does not reach it."""
 
 from __future__ import annotations
 
