@@ -7,9 +7,11 @@
   --arms-dir (default a temporary folder; a folder that already holds the build is reused);
 - grasps: docs/grasp_<name>.png, svh_right closing each configured grasp on its object (480x480), as
   `svhdesc render svh_right --grasp NAME` draws it;
-- pick_and_place: docs/pick_and_place_<moment>.png from the saved run docs/results/pick_and_place.json, which
-  `python examples/pick_and_place.py --json docs/results/pick_and_place.json` writes (it needs a ROS master and
-  the simulation: see docs/pick_and_place.md); drawing the pictures needs neither.
+- pick_and_place: docs/pick_and_place_<moment>.png and docs/pick_and_place_hand.png from the saved run
+  docs/results/pick_and_place.json, which `python examples/pick_and_place.py --json docs/results/pick_and_place.json`
+  writes (it needs a ROS master and the simulation: see docs/pick_and_place.md); drawing the pictures needs neither;
+- wireloop: docs/wireloop_mujoco.png, the UR5 + SVH after the learned wire-loop plan (`svhdesc wireloop train`
+  with its defaults, then `svhdesc wireloop mujoco --path test`: the test path, final pose; about half a minute).
 
 Every picture goes through svhdesc.validate.render (the light studio of svhdesc.offscreen).
 """
@@ -19,6 +21,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -43,7 +46,7 @@ VIEWS = {
 ARMS = ("panda_svh", "ur10_svh", "kinova_svh")
 GRASP_VARIANT = "svh_right"
 PICK_AND_PLACE = REPO / "docs" / "results" / "pick_and_place.json"
-PARTS = ("variants", "arms", "grasps", "pick_and_place")
+PARTS = ("variants", "arms", "grasps", "pick_and_place", "wireloop")
 
 
 def draw_variants(out: Path) -> list[Path]:
@@ -100,6 +103,17 @@ def draw_pick_and_place(out: Path, report: Path) -> list[Path]:
     return example.render_moments(json.loads(report.read_text())["moments"], out)
 
 
+def draw_wireloop(out: Path, scratch: Path) -> list[Path]:
+    cli = [sys.executable, "-m", "svhdesc.cli", "wireloop"]
+    subprocess.run([*cli, "train", "--out", str(scratch)], check=True, cwd=REPO, stdout=subprocess.DEVNULL)
+    policy = scratch / "q_table.json"
+    command = [*cli, "mujoco", "--policy", str(policy), "--path", "test", "--out", str(scratch)]
+    subprocess.run(command, check=True, cwd=REPO)
+    path = out / "wireloop_mujoco.png"
+    shutil.copyfile(scratch / "mujoco.png", path)
+    return [path]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", default=",".join(PARTS), help=f"comma-separated parts ({', '.join(PARTS)})")
@@ -118,6 +132,7 @@ def main() -> None:
             "arms": lambda: draw_arms(args.out, args.arms_dir or Path(scratch)),
             "grasps": lambda: draw_grasps(args.out),
             "pick_and_place": lambda: draw_pick_and_place(args.out, args.pick_and_place),
+            "wireloop": lambda: draw_wireloop(args.out, Path(scratch)),
         }
         for part in parts:
             for path in drawers[part]():
