@@ -456,8 +456,10 @@ def render_command(variant: str, out_file: Path, keyframe: str | None, size: str
     """Render VARIANT's scene.xml offscreen (visual geoms only) to a PNG.
 
     VARIANT is a built variant's name under generated/, or a variant directory or XML file. The
-    OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa. With --grasp, the hand closes that
-    grasp (config 'grasps') on its object, as validate's grasps check does, and is drawn holding it.
+    picture has a light backdrop, floor and lights (the scene.xml keeps its own for the viewer); the
+    camera frames the robot. The OpenGL backend is MUJOCO_GL if set, else EGL, then OSMesa. With
+    --grasp, the hand closes that grasp (config 'grasps') on its object, as validate's grasps check
+    does, and is drawn holding it. Every picture of docs/: python tools/render_docs.py.
     """
     from svhdesc.validate.render import parse_size, render
 

@@ -366,10 +366,8 @@ def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size:
     spec = result.spec
     qpos, ctrl = result.state
     spec.add_key(name="held", qpos=qpos, ctrl=ctrl)
-    spec.visual.global_.azimuth = -70.0
+    spec.visual.global_.azimuth = -70.0  # into the palm; the render's studio sets the lights
     spec.visual.global_.elevation = -15.0
-    spec.visual.headlight.ambient = (0.4, 0.4, 0.4)
-    spec.visual.headlight.diffuse = (0.7, 0.7, 0.7)
     with tempfile.TemporaryDirectory() as folder:
         scene = Path(folder) / f"grasp_{name}.xml"
         scene.write_text(spec.to_xml())

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.errors import SvhdescError
-from svhdesc.offscreen import draw_png, run_child
+from svhdesc.offscreen import draw_png, run_child, stage
 from svhdesc.wireloop.env import CCW, CW, Environment
 from svhdesc.wireloop.wiremap import WireMap, load_map
 
@@ -165,7 +165,11 @@ class Scene:
     """The extended model and the grid-to-world mapping."""
 
     def __init__(
-        self, wire_map: WireMap, config: SceneConfig | None = None, markers: list[list[float]] | None = None
+        self,
+        wire_map: WireMap,
+        config: SceneConfig | None = None,
+        markers: list[list[float]] | None = None,
+        picture: bool = False,
     ) -> None:
         from svhdesc.model import get
 
@@ -195,6 +199,8 @@ class Scene:
                 rgba=[0.15, 0.15, 0.15, 1.0],
             )
         _add_trace(spec, markers or [])
+        if picture:
+            stage(spec)  # the pictures' light backdrop, floor and lights
         self.model = spec.compile()
         self.site = self.model.site(SITE).id
         self.ring = {self.model.geom(f"wireloop_ring_{i}").id for i in range(segments)}
@@ -400,7 +406,7 @@ def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] 
 def _render_child() -> int:
     mujoco = _mujoco()
     request = json.loads(sys.stdin.read())
-    scene = Scene(load_map(request["map"]), markers=request["centres"])
+    scene = Scene(load_map(request["map"]), markers=request["centres"], picture=True)
     model = scene.model
     data = mujoco.MjData(model)
     data.qpos[:] = request["qpos"]

@@ -19,7 +19,7 @@ from types import ModuleType
 REPO = Path(__file__).resolve().parents[2]
 BENCHMARKS = REPO / "benchmarks"
 RESULTS = REPO / "docs" / "results"
-COMMAND = re.compile(r"- command: `python benchmarks/([\w-]+\.py)( [^`]*)?`")
+COMMAND = re.compile(r"- command: `python ((?:benchmarks|examples)/[\w-]+\.py)( [^`]*)?`")
 DATE = re.compile(r"- date: (\d{4}-\d\d-\d\d \d\d:\d\d UTC|not recorded\b.*)$")
 
 
@@ -41,9 +41,9 @@ def header_problems(page: Path, benchmarks: Path = BENCHMARKS) -> list[str]:
         problems.append(f"{name}: no '# title' and blank line first")
     command = COMMAND.match(lines[2])
     if not command:
-        problems.append(f"{name}: line 3 is not '- command: `python benchmarks/<script>.py ...`'")
-    elif not (benchmarks / command.group(1)).is_file():
-        problems.append(f"{name}: benchmarks/{command.group(1)} does not exist")
+        problems.append(f"{name}: line 3 is not '- command: `python benchmarks/<script>.py ...`' (or examples/)")
+    elif not (benchmarks.parent / command.group(1)).is_file():
+        problems.append(f"{name}: {command.group(1)} does not exist")
     if not re.match(r"- machine: \S", lines[3]):
         problems.append(f"{name}: line 4 is not '- machine: ...'")
     if not DATE.match(lines[4]):

@@ -1,5 +1,10 @@
 """examples/pick_and_place.py end to end: OMPL plans for every arm motion, every command through the ROS
-node's action servers, the can ends within 2 cm of its target, standing."""
+node's action servers, the validated power grasp with the thumb opposed, the can ends within 2 cm of its target,
+standing.
+
+Seeded fault: right_hand_Thumb_Opposition 0.3 in the example's targets (the grasp it had before the validated
+postures) fails it: the example exits 1 (no collision-free IK solution for the pre-grasp, the half-turned thumb
+meets the table). The opposition check catches a grasp that asks the keyframe's opposition and does not reach it."""
 
 from __future__ import annotations
 
@@ -13,6 +18,7 @@ from typing import Any
 
 import pytest
 
+import svhdesc
 from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, stop, svhdesc_executable, wait_for
 from tests.support import REPO
@@ -69,4 +75,10 @@ def test_pick_and_place_puts_the_can_within_2_cm(sim: dict[str, Any], tmp_path: 
     assert lifted[2] - report["start"][2] > 0.08  # it really was lifted with the hand (10 cm asked)
     carried = next(m for m in report["moments"] if m["name"] == "carried")["object"]
     assert carried[0] - report["start"][0] < -0.28  # and carried 30 cm
+    # The validated grasp, thumb opposed: the keyframe's opposition asked and reached while holding the can.
+    posture = svhdesc.get("ur5_svh_right").configuration().settings.keyframes[report["grasp"]]
+    grasp = next(m for m in report["moments"] if m["name"] == "grasp")["joints"]
+    assert report["grasp"] == "power"
+    assert abs(grasp["right_hand_Thumb_Opposition"] - posture["Thumb_Opposition"]) < 0.05, grasp
+    assert report["slip_in_hand"] < 0.01
     assert sim["node"].poll() is None
