@@ -679,6 +679,19 @@ def _inertia_setting(text: str) -> float | None:
 @click.argument("variant")
 @click.option("--keyframe", default="home", show_default=True, help="Start pose (a keyframe of the model).")
 @click.option("--ros", "use_ros", is_flag=True, help="Run as a ROS 1 node with the real drivers' interfaces.")
+@click.option(
+    "--ros2",
+    "use_ros2",
+    is_flag=True,
+    help="Run as a ROS 2 (Jazzy) node with the ROS 2 drivers' interfaces (needs .venv-ros2: tools/install.sh ros2).",
+)
+@click.option(
+    "--record",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    metavar="FILE.mcap",
+    help="With --ros2: record /clock, /joint_states and the controller states into MCAP (rosbag2's format).",
+)
 @click.option("--viewer", is_flag=True, help="Show MuJoCo's passive viewer (needs a display).")
 @click.option(
     "--duration", type=float, default=None, help="Simulated seconds (default: 1 s; endless with --ros/--viewer)."
@@ -699,6 +712,8 @@ def sim_command(
     variant: str,
     keyframe: str,
     use_ros: bool,
+    use_ros2: bool,
+    record: Path | None,
     viewer: bool,
     duration: float | None,
     realtime: bool,
@@ -708,9 +723,11 @@ def sim_command(
     scene_file: Path | None,
     ros_args: tuple[str, ...],
 ) -> None:
-    """Simulate VARIANT's scene from KEYFRAME; with --ros, serve it to ROS like the real drivers.
+    """Simulate VARIANT's scene from KEYFRAME; with --ros (ROS 1) or --ros2 (ROS 2 Jazzy), serve it to ROS like the
+    real drivers.
 
-    Trailing NAME:=VALUE arguments are ROS remappings (roslaunch passes __name:= and __log:=)."""
+    Trailing NAME:=VALUE arguments are ROS remappings (roslaunch passes __name:= and __log:=; with --ros2 each
+    becomes `--ros-args -r NAME:=VALUE`, e.g. __ns:=/left)."""
     if duration is not None and not 0 < duration < math.inf:
         raise SvhdescError(f"--duration must be a positive, finite number of seconds, got {duration}")
     if not 0 < rate < math.inf:
@@ -720,14 +737,25 @@ def sim_command(
         raise SvhdescError(f"unexpected argument(s): {' '.join(stray)}")
     from svhdesc.sim.objects import load_obstacles
 
+    if use_ros and use_ros2:
+        raise SvhdescError("--ros and --ros2 exclude each other: one node speaks ROS 1 or ROS 2")
+    if record is not None and not use_ros2:
+        raise SvhdescError("--record needs --ros2 (it records the ROS 2 node's messages)")
     objects = load_obstacles(scene_file) if scene_file is not None else []
+    if use_ros2:
+        if track or connector is not None:
+            raise SvhdescError("--track and --connector are ROS 1 (--ros) options; the ROS 2 node has neither")
+        from svhdesc.ros2.node import run_node as run_ros2_node
+
+        run_ros2_node(variant, keyframe, viewer, duration, realtime, list(ros_args), record, objects)
+        return
     if use_ros:
         from svhdesc.ros1.node import run_node
 
         run_node(variant, keyframe, viewer, duration, realtime, track, rate, connector, list(ros_args), objects)
         return
     if ros_args:
-        raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros")
+        raise SvhdescError(f"ROS remappings ({' '.join(ros_args)}) need --ros or --ros2")
     from svhdesc.sim.cli_run import run_plain
 
     run_plain(variant, keyframe, viewer, duration, realtime, track, click.echo, objects)

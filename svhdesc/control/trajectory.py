@@ -39,6 +39,27 @@ class Goal:
     goal_time: float = 0.0
 
 
+@dataclass(frozen=True)
+class Semantics:
+    """Where ros_controllers' (noetic) and ros2_controllers' (Jazzy) joint_trajectory_controller differ.
+
+    Jazzy (ros2_controllers joint_trajectory_controller.cpp): validate_trajectory_msg rejects an empty
+    trajectory ("Empty trajectory received."); with ``constraints.goal_time`` 0 the controller waits for the
+    goal tolerances indefinitely; preempt_active_goal cancels the old goal with INVALID_GOAL and "Current goal
+    cancelled due to new incoming action."; fill_partial_goal gives the joints a partial goal does not name
+    their last command (they stop)."""
+
+    empty_goal_stops: bool
+    zero_goal_time_waits: bool
+    preempted_code: ErrorCode
+    preempted_text: str
+    holds_unnamed: bool
+
+
+NOETIC = Semantics(True, False, ErrorCode.SUCCESSFUL, "preempted by a new goal", False)
+JAZZY = Semantics(False, True, ErrorCode.INVALID_GOAL, "Current goal cancelled due to new incoming action.", True)
+
+
 class Status(enum.Enum):
     SUCCEEDED = "succeeded"
     ABORTED = "aborted"
@@ -132,8 +153,10 @@ class JointTrajectoryCore:
         state_period: float = 0.02,
         running: bool = True,
         reports_velocity: bool = True,
+        semantics: Semantics = NOETIC,
     ) -> None:
         self.name = name
+        self.semantics = semantics
         self.joints = list(joints)
         self.sink = sink
         self.defaults = defaults
@@ -192,10 +215,22 @@ class JointTrajectoryCore:
         except (SvhdescError, TypeError, ValueError) as exc:
             return Rejection(ErrorCode.INVALID_GOAL, str(exc))
 
-    def _preempt(self, why: str) -> None:
+    def _preempt(self, why: str, code: ErrorCode = ErrorCode.SUCCESSFUL) -> None:
         if self._active is not None:
             handle, self._active = self._active.handle, None
-            self.sink.finished(handle, Result(Status.CANCELED, ErrorCode.SUCCESSFUL, why))
+            self.sink.finished(handle, Result(Status.CANCELED, code, why))
+
+    def check(self, goal: Goal | Rejection) -> Rejection | None:
+        """Read-only: why ``goal`` would be rejected now (an adapter whose transport answers a goal at once,
+        as rclpy's goal callback, asks this first; ``submit`` checks again on the simulation thread)."""
+        if not self.running:
+            return Rejection(ErrorCode.INVALID_GOAL, "Can't accept new action goals. Controller is not running.")
+        goal = first_occurrences(goal)
+        if isinstance(goal, Rejection):
+            return goal
+        if not goal.points and self.semantics.empty_goal_stops:
+            return None
+        return self._check(goal)
 
     def submit(self, goal: Goal | Rejection, handle: Any) -> Rejection | None:
         """A FollowJointTrajectory goal (or the adapter's rejection of a message it could not read): the
@@ -209,6 +244,7 @@ class JointTrajectoryCore:
         if (
             isinstance(goal, Goal)
             and not goal.points
+            and self.semantics.empty_goal_stops
             and (rejection is None or rejection.code == ErrorCode.INVALID_GOAL)
         ):
             # As JointTrajectoryController: valid joints and no points stop the controller where it is.
@@ -223,7 +259,9 @@ class JointTrajectoryCore:
         trajectory = self._start(goal)
         if isinstance(trajectory, Rejection):
             return self._reject(handle, trajectory)
-        self._preempt("preempted by a new goal")
+        self._preempt(self.semantics.preempted_text, self.semantics.preempted_code)
+        if self.semantics.holds_unnamed:
+            self._hold_unnamed(goal.joint_names)
         self.sink.accepted(handle)
         tolerances = self.defaults.merged(
             goal.path_position, goal.goal_position, goal.goal_time, goal.path_velocity, goal.goal_velocity
@@ -231,6 +269,13 @@ class JointTrajectoryCore:
         self._active = _Active(handle, list(goal.joint_names), trajectory, tolerances)
         self._next_feedback = self._sim.time
         return None
+
+    def _hold_unnamed(self, named: Sequence[str]) -> None:
+        """Jazzy's fill_partial_goal: joints a partial goal leaves out keep their last command."""
+        unnamed = [j for j in self.joints if j not in named]
+        if unnamed:
+            desired = self._sim.desired(unnamed)
+            self._sim.set_targets(dict(zip(unnamed, desired.positions.tolist())))
 
     def _reject(self, handle: Any, rejection: Rejection) -> Rejection:
         self.sink.warn(f"{self.name}: goal rejected ({int(rejection.code)}): {rejection.reason}")
@@ -330,7 +375,9 @@ class JointTrajectoryCore:
         failing = [j for j in active.joints if outside(j)]
         if not failing:
             self._finish(ErrorCode.SUCCESSFUL, "")
-        elif now >= active.trajectory.end_time + tolerances.goal_time:  # JTC: at once when goal_time is 0
+        elif tolerances.goal_time == 0.0 and self.semantics.zero_goal_time_waits:
+            return  # Jazzy: goal_time 0 waits for the goal tolerances indefinitely
+        elif now >= active.trajectory.end_time + tolerances.goal_time:  # noetic: at once when goal_time is 0
             worst = failing[0]
             self._finish(
                 ErrorCode.GOAL_TOLERANCE_VIOLATED,

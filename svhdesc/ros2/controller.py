@@ -1,0 +1,251 @@
+"""One joint_trajectory_controller over ROS 2 (rclpy): a ``control_msgs/action/FollowJointTrajectory`` server at
+``<controller>/follow_joint_trajectory`` and ``<controller>/controller_state``
+(``control_msgs/msg/JointTrajectoryControllerState``), as ros2_controllers' Jazzy JTC serves them. The semantics are
+svhdesc.control.trajectory's with ``JAZZY``; this adapter converts messages and answers goal handles.
+
+Threads: rclpy's executor thread answers goal requests at once, as JTC's goal_received_callback does (a read-only
+check: rejected goals get no result, only the rejection), and runs each accepted goal's execute coroutine, which
+queues the goal for the simulation thread and awaits its end. Everything that touches the simulation runs on the
+simulation thread (node.py drains the queue every control update).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
+from svhdesc.control.trajectory import JAZZY, Goal, JointTrajectoryCore, Result, Sample, Status
+from svhdesc.model import ACTION
+from svhdesc.sim import Point, Simulation
+
+UNKNOWN = "<not a joint of this controller>:"  # an unknown name can never match a simulation joint
+
+
+def seconds(value: Any) -> float:
+    """builtin_interfaces Time or Duration in seconds."""
+    return float(value.sec) + 1e-9 * float(value.nanosec)
+
+
+def stamp(time_class: Any, at: float) -> Any:
+    """builtin_interfaces/Time of ``at`` seconds."""
+    whole, nanoseconds = divmod(int(round(at * 1e9)), 1_000_000_000)
+    return time_class(sec=whole, nanosec=nanoseconds)
+
+
+def trajectory_goal(request: Any, to_sim: Mapping[str, str]) -> Goal | Rejection:
+    """A FollowJointTrajectory goal (ROS 2 joint names) as the core's Goal (simulation joint names)."""
+
+    def sim(name: str) -> str:
+        return to_sim.get(name, UNKNOWN + name)
+
+    try:
+        trajectory = request.trajectory
+        points = [
+            Point(
+                seconds(p.time_from_start),
+                tuple(p.positions),
+                tuple(p.velocities) or None,
+                tuple(p.accelerations) or None,
+            )
+            for p in trajectory.points
+        ]
+        return Goal(
+            [sim(n) for n in trajectory.joint_names],
+            points,
+            seconds(trajectory.header.stamp),
+            {sim(t.name): t.position for t in request.path_tolerance},
+            {sim(t.name): t.velocity for t in request.path_tolerance},
+            {sim(t.name): t.position for t in request.goal_tolerance},
+            {sim(t.name): t.velocity for t in request.goal_tolerance},
+            seconds(request.goal_time_tolerance),
+        )
+    except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
+        return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
+
+
+class _Goal:
+    """An accepted goal: rclpy's goal handle and the future its execute coroutine awaits."""
+
+    def __init__(self, goal_handle: Any, future: Any) -> None:
+        self.goal_handle = goal_handle
+        self.future = future
+
+
+class TrajectoryController:
+    def __init__(
+        self,
+        node: Any,
+        name: str,
+        joints: Sequence[str],
+        to_ros: Mapping[str, str],
+        sim: Simulation,
+        allow_partial: bool,
+        defaults: Tolerances,
+        queue: deque,
+        wake: Callable[[], None],
+        feedback_period: float,
+        state_period: float,
+        reports_velocity: bool,
+        callback_group: Any = None,
+    ) -> None:
+        """``joints``: the simulation's names; ``to_ros`` maps them to the ROS 2 driver's. ``wake`` wakes the
+        executor after the simulation thread finished a goal (its execute coroutine then returns)."""
+        from builtin_interfaces.msg import Time
+        from control_msgs.action import FollowJointTrajectory
+        from control_msgs.msg import JointTrajectoryControllerState
+        from rclpy.action import ActionServer
+        from rclpy.task import Future
+        from trajectory_msgs.msg import JointTrajectoryPoint
+
+        self._Time, self._Action, self._Point = Time, FollowJointTrajectory, JointTrajectoryPoint
+        self._Future = Future
+        self.name = name
+        self.joints = list(joints)
+        self._ros_names = [to_ros[j] for j in joints]
+        self._to_ros = dict(to_ros)
+        self._to_sim = {to_ros[j]: j for j in joints}
+        self._node, self._queue, self._wake = node, queue, wake
+        self._lock = threading.Lock()
+        self.recorder: Callable[[str, Any, float], None] | None = None  # (topic, message, time): --record
+        self.core = JointTrajectoryCore(
+            name,
+            joints,
+            sim,
+            self,
+            allow_partial,
+            defaults,
+            feedback_period,
+            state_period,
+            True,
+            reports_velocity,
+            JAZZY,
+        )
+        self._state_class = JointTrajectoryControllerState
+        self._state = node.create_publisher(JointTrajectoryControllerState, f"{name}/controller_state", 10)
+        self._server = ActionServer(
+            node,
+            FollowJointTrajectory,
+            f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
+            execute_callback=self._execute,
+            goal_callback=self._on_goal_request,
+            cancel_callback=self._on_cancel,
+            callback_group=callback_group,
+        )
+
+    # -- rclpy's executor thread -------------------------------------------------------------
+    def _on_goal_request(self, request: Any) -> Any:
+        """As JTC's goal_received_callback: accept, or reject at once (the client gets no result)."""
+        from rclpy.action import GoalResponse
+
+        rejection = self.core.check(trajectory_goal(request, self._to_sim))
+        if rejection is not None:
+            self.warn(f"{self.name}: goal rejected ({int(rejection.code)}): {rejection.reason}")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _on_cancel(self, goal_handle: Any) -> Any:
+        from rclpy.action import CancelResponse
+
+        self._queue.append((self.on_cancel, goal_handle))
+        return CancelResponse.ACCEPT  # as JTC: a goal that is no longer active ends as it ended
+
+    async def _execute(self, goal_handle: Any) -> Any:
+        goal = _Goal(goal_handle, self._Future())
+        self._queue.append((self.on_goal, goal))
+        await goal.future
+        status, result = goal.future.result()
+        if status is Status.SUCCEEDED:
+            goal_handle.succeed()
+        elif status is Status.ABORTED:
+            goal_handle.abort()
+        else:
+            if goal_handle.status != 3:  # GoalStatus.STATUS_CANCELING: preempted or stopped, not canceled
+                _to_canceling(goal_handle)
+            goal_handle.canceled()
+        return result
+
+    # -- the simulation thread ---------------------------------------------------------------
+    def on_goal(self, goal: _Goal) -> None:
+        self.core.submit(trajectory_goal(goal.goal_handle.request, self._to_sim), goal)
+
+    def on_cancel(self, goal_handle: Any) -> None:
+        active = self.core.active_handle
+        if self.core.cancel(lambda handle: handle.goal_handle is goal_handle):
+            self._resolve(active, Status.CANCELED, ErrorCode.SUCCESSFUL, "")
+
+    @property
+    def running(self) -> bool:
+        return self.core.running
+
+    def starting(self) -> None:
+        self.core.starting()
+
+    def stopping(self) -> None:
+        self.core.stopping()
+
+    def update(self) -> None:
+        self.core.update()
+
+    def _resolve(self, goal: _Goal, status: Status, code: ErrorCode, text: str) -> None:
+        result = self._Action.Result(error_code=int(code), error_string=text)
+        with self._lock:
+            if not goal.future.done():
+                goal.future.set_result((status, result))
+        self._wake()
+
+    # -- the core's sink ---------------------------------------------------------------------
+    def accepted(self, handle: Any) -> None:
+        """rclpy accepted the goal already (the goal request's check)."""
+
+    def rejected(self, handle: Any, rejection: Rejection) -> None:
+        """The check on the simulation thread failed after rclpy's had passed (time moved on, or the controller
+        was stopped meanwhile): the accepted goal aborts with the rejection's code."""
+        self._resolve(handle, Status.ABORTED, rejection.code, rejection.reason)
+
+    def finished(self, handle: Any, result: Result) -> None:
+        self._resolve(handle, result.status, result.code, result.text)
+
+    def warn(self, text: str) -> None:
+        self._node.get_logger().warning(text)
+
+    def state(self, sample: Sample) -> None:
+        message = self._state_class()
+        message.header.stamp = stamp(self._Time, sample.stamp)
+        message.joint_names = [self._to_ros[j] for j in sample.joints]
+        reference, feedback, error = self._points(sample)
+        message.reference, message.feedback, message.error = reference, feedback, error
+        message.output = self._Point(positions=list(reference.positions))  # position command interface
+        self._state.publish(message)
+        if self.recorder is not None:
+            self.recorder(self._state.topic_name, message, sample.stamp)
+
+    def feedback(self, handle: Any, sample: Sample) -> None:
+        message = self._Action.Feedback()
+        message.header.stamp = stamp(self._Time, sample.stamp)
+        message.joint_names = [self._to_ros[j] for j in sample.joints]
+        message.desired, message.actual, message.error = self._points(sample)
+        handle.goal_handle.publish_feedback(message)
+
+    def _points(self, sample: Sample) -> tuple[Any, Any, Any]:
+        point, desired = self._Point, sample.desired
+        return (
+            point(
+                positions=desired.positions.tolist(),
+                velocities=desired.velocities.tolist(),
+                accelerations=desired.accelerations.tolist(),
+            ),
+            point(positions=sample.actual_positions.tolist(), velocities=sample.actual_velocities.tolist()),
+            point(positions=sample.position_error.tolist(), velocities=sample.velocity_error.tolist()),
+        )
+
+
+def _to_canceling(goal_handle: Any) -> None:
+    """rclpy's goal handle has no public way from EXECUTING to CANCELED: JTC's preempt_active_goal and on_deactivate
+    cancel a goal no client asked to cancel, so the goal takes the CANCEL_GOAL event first (rcl_action's state
+    machine), as a client's cancel request would."""
+    from rclpy.impl.implementation_singleton import rclpy_implementation
+
+    goal_handle._update_state(rclpy_implementation.GoalEvent.CANCEL_GOAL)

@@ -1,0 +1,269 @@
+"""The ROS 2 node (``svhdesc sim VARIANT --ros2``): the simulation behind the ROS 2 drivers' interfaces.
+
+What it serves (names from the variant's ``ros2/config/ros2_controllers.yaml``, written from svhdesc.model's ROS 2
+names: SCHUNK's schunk_svh_ros_driver and ur_robot_driver's ROS 2 configs, see docs/ros2.md):
+  /clock                                              rosgraph_msgs/msg/Clock, simulated time (use_sim_time)
+  joint_states                                        sensor_msgs/msg/JointState, every joint (joint_state_broadcaster)
+  <controller>/follow_joint_trajectory                control_msgs/action/FollowJointTrajectory (Jazzy JTC)
+  <controller>/controller_state                       control_msgs/msg/JointTrajectoryControllerState
+  controller_manager/list_controllers, switch_controller   controller_manager_msgs/srv
+with <controller> ``right_hand`` / ``left_hand`` and, with an arm, ``scaled_joint_trajectory_controller``.
+
+One control update per controller-manager period (``update_rate``, 125 Hz): the simulation steps the physics for a
+period, then this node publishes /clock, updates each controller (tolerances, feedback, controller_state),
+publishes joint_states, records, and runs the work rclpy's callbacks queued. rclpy's executor spins in its own
+thread and never touches the simulation.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from svhdesc.control.goals import Tolerances
+from svhdesc.control.manager import Loaded
+from svhdesc.errors import SvhdescError
+from svhdesc.model import (
+    JTC_DEFAULTS,
+    NODE_NAME,
+    REPORTS_VELOCITY,
+    ROS2_JOINT_STATE_BROADCASTER,
+    ros2_joint_name,
+)
+from svhdesc.ros2.system import import_rclpy
+from svhdesc.sim import Simulation
+
+
+def controllers_file(variant: str) -> Path:
+    from svhdesc.model import get
+
+    return get(variant).directory / "ros2" / "config" / "ros2_controllers.yaml"
+
+
+def read_controllers(path: Path) -> tuple[float, dict[str, str], dict[str, dict]]:
+    """(update_rate, {controller: type}, {controller: its ros__parameters}) of a ros2_controllers.yaml."""
+    if not path.is_file():
+        raise SvhdescError(f"{path} is missing: rebuild the variant (svhdesc build) to write its ROS 2 files")
+    try:
+        data = yaml.safe_load(path.read_text())
+        manager = data["controller_manager"]["ros__parameters"]
+        rate = float(manager["update_rate"])
+        types = {name: value["type"] for name, value in manager.items() if isinstance(value, dict)}
+        parameters = {name: data.get(name, {}).get("ros__parameters", {}) for name in types}
+    except (yaml.YAMLError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise SvhdescError(f"{path}: not a ros2_controllers file ({type(exc).__name__}: {exc})") from None
+    if not 0 < rate < math.inf:
+        raise SvhdescError(f"{path}: update_rate must be positive, got {rate}")
+    return rate, types, parameters
+
+
+def tolerances(parameters: dict, joints: Sequence[str], to_ros: dict[str, str]) -> Tolerances:
+    """JTC's ``constraints`` (ROS 2 names in the yaml) over the simulation's joint names; JTC's defaults where
+    the yaml declares none."""
+    constraints = parameters.get("constraints", {})
+
+    def joint(name: str, key: str) -> float:
+        return float(constraints.get(to_ros[name], {}).get(key, JTC_DEFAULTS[key]))
+
+    return Tolerances(
+        path={j: joint(j, "trajectory") for j in joints},
+        goal={j: joint(j, "goal") for j in joints},
+        stopped_velocity=float(
+            constraints.get("stopped_velocity_tolerance", JTC_DEFAULTS["stopped_velocity_tolerance"])
+        ),
+        goal_time=float(constraints.get("goal_time", JTC_DEFAULTS["goal_time"])),
+    )
+
+
+class SimNode:
+    def __init__(self, sim: Simulation, controllers: Path, recorder: Any = None) -> None:
+        rclpy = import_rclpy()
+        from builtin_interfaces.msg import Time
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.parameter import Parameter
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+
+        from svhdesc.ros2.controller import TrajectoryController, stamp
+        from svhdesc.ros2.manager import ControllerManager
+
+        self._rclpy, self.sim, self.recorder = rclpy, sim, recorder
+        self.queue: deque = deque()
+        self._Time, self._Clock, self._JointState, self._stamp = Time, Clock, JointState, stamp
+        rate, types, parameters = read_controllers(controllers)
+        self.period = 1.0 / rate
+        self.node = rclpy.create_node(
+            NODE_NAME, parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
+        )
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self._clock = self.node.create_publisher(Clock, "/clock", 10)
+        self._joint_states = self.node.create_publisher(JointState, "joint_states", 10)
+        self._names = [ros2_joint_name(j) for j in sim.info.joints]
+        self.controllers: list[TrajectoryController] = []
+        loaded, interfaces = self._load(controllers, types, parameters)
+        self.manager = ControllerManager(self.node, loaded, interfaces, self.queue)
+        self._spinner = threading.Thread(target=self._spin, name="svhdesc-rclpy", daemon=True)
+
+    def _load(
+        self, path: Path, types: dict[str, str], parameters: dict[str, dict]
+    ) -> tuple[list[Loaded], dict[str, tuple[list[str], list[str]]]]:
+        """The controllers of the yaml: joint_state_broadcaster (always active) and each trajectory controller."""
+        from svhdesc.ros2.controller import TrajectoryController
+
+        sim = self.sim
+        to_ros = {j: ros2_joint_name(j) for j in sim.info.actuators}
+        to_sim = {ros: j for j, ros in to_ros.items()}
+        loaded = []
+        interfaces: dict[str, tuple[list[str], list[str]]] = {}
+        for name, kind in types.items():
+            if name == ROS2_JOINT_STATE_BROADCASTER:
+                loaded.append(Loaded(name, kind, "", [], True))
+                continue
+            params = parameters[name]
+            unknown = [j for j in params.get("joints", []) if j not in to_sim]
+            if unknown or not params.get("joints"):
+                raise SvhdescError(f"{path}: {name} names joints {unknown} that {sim.variant} does not actuate")
+            joints = [to_sim[j] for j in params["joints"]]
+            hand = all(j in sim.info.hand_channels for j in joints)
+            controller = TrajectoryController(
+                self.node,
+                name,
+                joints,
+                to_ros,
+                sim,
+                bool(params.get("allow_partial_joints_goal", False)),
+                tolerances(params, joints, to_ros),
+                self.queue,
+                self.executor.wake,
+                feedback_period=1.0 / float(params.get("action_monitor_rate", 20.0)),
+                state_period=self.period,  # Jazzy's JTC publishes its state every update
+                reports_velocity=REPORTS_VELOCITY["hand" if hand else "arm"],
+            )
+            controller.recorder = self._record
+            self.controllers.append(controller)
+            loaded.append(Loaded(name, kind, "position", [to_ros[j] for j in joints], True, controller))
+            interfaces[name] = (
+                [f"{to_ros[j]}/position" for j in joints],
+                [f"{to_ros[j]}/{i}" for j in joints for i in params.get("state_interfaces", ["position"])],
+            )
+        return loaded, interfaces
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # noqa: BLE001 - rclpy raises on shutdown (ExternalShutdownException and kin)
+            pass
+
+    def _record(self, topic: str, message: Any, at: float) -> None:
+        if self.recorder is not None:
+            self.recorder.write(topic, message, at)
+
+    def _drain(self) -> None:
+        while self.queue:
+            handler, argument = self.queue.popleft()
+            try:
+                handler(argument)
+            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
+                self.node.get_logger().error(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+
+    def publish(self) -> None:
+        """/clock and joint_states at the simulation's time (and into the recording)."""
+        at = self.sim.time
+        clock = self._Clock(clock=self._stamp(self._Time, at))
+        self._clock.publish(clock)
+        self._record(self._clock.topic_name, clock, at)
+        state = self.sim.joint_state()
+        message = self._JointState(
+            name=self._names,
+            position=state.positions.tolist(),
+            velocity=state.velocities.tolist(),
+            effort=state.efforts.tolist(),
+        )
+        message.header.stamp = clock.clock
+        self._joint_states.publish(message)
+        self._record(self._joint_states.topic_name, message, at)
+
+    def update(self, _: Any = None) -> bool:
+        """One control update (after a period of physics): False once ROS 2 shuts down."""
+        for controller in self.controllers:
+            controller.update()
+        self.publish()
+        self._drain()
+        return self._rclpy.ok()
+
+    def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
+        """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
+        self.publish()
+        self._spinner.start()
+        self._drain()
+
+        def between_updates(sim: Simulation) -> bool:
+            if viewer is not None:
+                viewer.sync()
+                if not viewer.running:
+                    return False
+            return self.update()
+
+        # The runtime steps the physics one control period at a time, keeping to the wall clock when asked.
+        return self.sim.run(duration, realtime=realtime, every=self.period, callback=between_updates)
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self._rclpy.try_shutdown()
+        self._spinner.join(2.0)
+
+
+def run_node(
+    variant: str,
+    keyframe: str | None,
+    viewer: bool,
+    duration: float | None,
+    realtime: bool,
+    ros_args: list[str],
+    record: Path | None = None,
+    objects: Sequence[Any] = (),
+) -> None:
+    """``svhdesc sim VARIANT --ros2``: serve the simulation over ROS 2 (DDS discovery as ROS_* variables say)."""
+    rclpy = import_rclpy()
+    from svhdesc.sim.objects import add_objects
+
+    path = controllers_file(variant)
+    read_controllers(path)  # a bad file fails before anything starts
+    sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
+    recorder = None
+    if record is not None:
+        from svhdesc.ros2.record import Recorder
+
+        recorder = Recorder(record)
+    remaps = [a for arg in ros_args for a in ("-r", arg)]
+    rclpy.init(args=["svhdesc", *(["--ros-args", *remaps] if remaps else [])])
+    window = None
+    node = None
+    factor = 0.0
+    try:
+        node = SimNode(sim, path, recorder)
+        if viewer:
+            from svhdesc.sim.viewer import Viewer
+
+            window = Viewer(sim.model, sim.data)
+        logger = node.node.get_logger()
+        names = ", ".join(c.name for c in node.controllers)
+        logger.info(f"{variant}: serving {names} at {1 / node.period:g} Hz ({'real time' if realtime else 'as fast'})")
+        factor = node.spin(math.inf if duration is None else duration, realtime, window)
+        logger.info(f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time")
+    finally:
+        if recorder is not None:
+            recorder.close()
+        if window is not None:
+            window.close()
+        if node is not None:
+            node.close()
+        rclpy.try_shutdown()

@@ -1,0 +1,24 @@
+"""Importing rclpy (lazily: the ROS 2 Jazzy wheels live in their own venv, .venv-ros2)."""
+
+from __future__ import annotations
+
+import sys
+from types import ModuleType
+
+from svhdesc.errors import SvhdescError
+
+MISSING = (
+    "--ros2 needs ROS 2 Jazzy's rclpy and control_msgs, which {python} cannot import ({why}): run it with "
+    ".venv-ros2/bin/python -m svhdesc.cli (or .venv-ros2/bin/svhdesc), made by `bash tools/install.sh ros2`"
+)
+
+
+def import_rclpy() -> ModuleType:
+    """rclpy, or an SvhdescError saying which venv has it (control_msgs too: it is built at install time)."""
+    try:
+        import control_msgs.action  # noqa: F401 - built by tools/build_ros2_interfaces.sh
+        import controller_manager_msgs.srv  # noqa: F401
+        import rclpy
+    except ImportError as exc:  # ModuleNotFoundError, or a wheel whose native library does not load
+        raise SvhdescError(MISSING.format(python=sys.executable, why=exc)) from None
+    return rclpy
