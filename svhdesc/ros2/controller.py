@@ -189,8 +189,14 @@ class TrajectoryController:
     def update(self) -> None:
         self.core.update()
 
+    def _renamed(self, text: str) -> str:
+        """The core's texts name the simulation's joints: say the ROS 2 driver's names."""
+        for joint in sorted(self._to_ros, key=len, reverse=True):
+            text = text.replace(joint, self._to_ros[joint])
+        return text
+
     def _resolve(self, goal: _Goal, status: Status, code: ErrorCode, text: str) -> None:
-        result = self._Action.Result(error_code=int(code), error_string=text)
+        result = self._Action.Result(error_code=int(code), error_string=self._renamed(text))
         with self._lock:
             if not goal.future.done():
                 goal.future.set_result((status, result))
@@ -209,7 +215,7 @@ class TrajectoryController:
         self._resolve(handle, result.status, result.code, result.text)
 
     def warn(self, text: str) -> None:
-        self._node.get_logger().warning(text)
+        self._node.get_logger().warning(self._renamed(text))
 
     def state(self, sample: Sample) -> None:
         message = self._state_class()

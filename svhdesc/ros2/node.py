@@ -18,6 +18,7 @@ thread and never touches the simulation.
 from __future__ import annotations
 
 import math
+import sys
 import threading
 from collections import deque
 from collections.abc import Sequence
@@ -191,10 +192,17 @@ class SimNode:
         self._record(self._joint_states.topic_name, message, at)
 
     def update(self, _: Any = None) -> bool:
-        """One control update (after a period of physics): False once ROS 2 shuts down."""
+        """One control update (after a period of physics): False once ROS 2 shuts down (SIGINT, SIGTERM)."""
+        if not self._rclpy.ok():
+            return False
         for controller in self.controllers:
             controller.update()
-        self.publish()
+        try:
+            self.publish()
+        except Exception:
+            if self._rclpy.ok():
+                raise
+            return False  # shut down by a signal between the check above and the publication
         self._drain()
         return self._rclpy.ok()
 
@@ -258,7 +266,11 @@ def run_node(
         names = ", ".join(c.name for c in node.controllers)
         logger.info(f"{variant}: serving {names} at {1 / node.period:g} Hz ({'real time' if realtime else 'as fast'})")
         factor = node.spin(math.inf if duration is None else duration, realtime, window)
-        logger.info(f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time")
+        summary = f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time"
+        if rclpy.ok():
+            logger.info(summary)
+        else:  # stopped by a signal: rosout is gone
+            print(f"[INFO] [{NODE_NAME}]: {summary}", file=sys.stderr)
     finally:
         if recorder is not None:
             recorder.close()

@@ -2,9 +2,10 @@
 
 Profile ``ros2``; one schema per message type, encoding ``ros2msg``, whose text is the type's .msg definition
 followed by each type it uses (recursively), each after a line of 80 ``=`` and ``MSG: pkg/msg/Type`` (rosbag2's
-message_definition_cache); channels with message encoding ``cdr``. Payloads are rclpy's own serialization
-(``rclpy.serialization.serialize_message``: the bytes a subscriber gets). Log and publish times are the
-simulated time in nanoseconds. The file is written beside FILE as a temporary and renamed onto FILE when the
+message_definition_cache); channels with message encoding ``cdr``. Payloads are encoded by mcap-ros2-support
+from that definition (rclpy's ``serialize_message`` is not used: with Fast DDS it returns rmw's estimated size,
+with trailing bytes that strict readers such as rosbags refuse). Log and publish times are the simulated time in
+nanoseconds. The file is written beside FILE as a temporary and renamed onto FILE when the
 recording closes, so FILE is either absent or complete.
 """
 
@@ -102,10 +103,9 @@ def type_name(message: Any) -> str:
 class Recorder:
     def __init__(self, path: Path) -> None:
         try:
-            from mcap.writer import CompressionType, Writer
-            from rclpy.serialization import serialize_message
+            from mcap_ros2.writer import Writer
         except ImportError as exc:
-            raise SvhdescError(f"--record needs the ros2 extra's mcap and rclpy ({exc}): use .venv-ros2") from None
+            raise SvhdescError(f"--record needs the ros2 extra's mcap-ros2-support ({exc}): use .venv-ros2") from None
         self.path = path
         if path.suffix != ".mcap":
             raise SvhdescError(f"--record: {path} should end in .mcap (rosbag2's MCAP storage)")
@@ -117,33 +117,20 @@ class Recorder:
         os.umask(mask)
         os.chmod(handle, 0o666 & ~mask)  # mkstemp's 0600 would make the recording private
         self._stream = os.fdopen(handle, "wb")
-        self._writer = Writer(self._stream, compression=CompressionType.ZSTD)
-        self._writer.start(profile="ros2", library="svhdesc")
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
+        self._writer = Writer(self._stream)  # profile ros2, zstd chunks
+        self._schemas: dict[str, Any] = {}
         self._sequence = 0
         self.count = 0
-        self._serialize = serialize_message
-
-    def _channel(self, topic: str, message: Any) -> int:
-        channel = self._channels.get(topic)
-        if channel is None:
-            kind = type_name(message)
-            schema = self._schemas.get(kind)
-            if schema is None:
-                schema = self._writer.register_schema(kind, "ros2msg", message_definition(kind).encode())
-                self._schemas[kind] = schema
-            channel = self._writer.register_channel(topic, "cdr", schema, {"offered_qos_profiles": ""})
-            self._channels[topic] = channel
-        return channel
 
     def write(self, topic: str, message: Any, at: float) -> None:
         """``message`` on ``topic`` at simulated time ``at`` (s)."""
         nanoseconds = int(round(at * 1e9))
+        kind = type_name(message)
+        schema = self._schemas.get(kind)
+        if schema is None:
+            schema = self._schemas[kind] = self._writer.register_msgdef(kind, message_definition(kind))
         self._sequence += 1
-        self._writer.add_message(
-            self._channel(topic, message), nanoseconds, self._serialize(message), nanoseconds, self._sequence
-        )
+        self._writer.write_message(topic, schema, message, nanoseconds, nanoseconds, self._sequence)
         self.count += 1
 
     def close(self, keep: bool = True) -> None:

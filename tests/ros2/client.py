@@ -1,0 +1,464 @@
+"""An independent ROS 2 client of ``svhdesc sim VARIANT --ros2``: rclpy, control_msgs and controller_manager_msgs
+only; it imports nothing of svhdesc and knows the node only by the ROS 2 names (from the variant's generated ROS 2
+files: ros2/config/ros2_controllers.yaml and ros2/mujoco/<variant>.xml).
+
+    python client.py VARIANT_DIR REPORT.json        # every check, one JSON report (tests/ros2/test_node.py reads it)
+    python client.py --die VARIANT_DIR CONTROLLER   # send a long goal, print "accepted", kill itself (SIGKILL)
+    python client.py --recording FILE.mcap OUT.json # read the node's recording back with rosbags
+
+Runs inside the test's private network namespace with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST. Every wait is on
+simulated time (/clock) or on an answer, bounded by a generous wall-clock timeout.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import rclpy
+import yaml
+from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Duration, Time
+from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTolerance, JointTrajectoryControllerState
+from controller_manager_msgs.srv import ListControllers, SwitchController
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+WALL = 60.0  # the most any single answer may take (wall-clock seconds)
+ARM = "scaled_joint_trajectory_controller"
+STATUS = {
+    GoalStatus.STATUS_SUCCEEDED: "succeeded",
+    GoalStatus.STATUS_CANCELED: "canceled",
+    GoalStatus.STATUS_ABORTED: "aborted",
+}
+
+
+def duration(seconds: float) -> Duration:
+    return Duration(sec=int(seconds), nanosec=int(round((seconds - int(seconds)) * 1e9)))
+
+
+def seconds(stamp: Any) -> float:
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def time_of(at: float) -> Time:
+    whole, nanoseconds = divmod(int(round(at * 1e9)), 1_000_000_000)
+    return Time(sec=whole, nanosec=nanoseconds)
+
+
+def wait(future: Any, timeout: float = WALL) -> Any:
+    done = threading.Event()
+    future.add_done_callback(lambda _: done.set())
+    if not done.wait(timeout):
+        raise TimeoutError("no answer")
+    return future.result()
+
+
+class Client:
+    def __init__(self, variant_dir: Path) -> None:
+        self.variant = variant_dir.name
+        controllers = yaml.safe_load((variant_dir / "ros2/config/ros2_controllers.yaml").read_text())
+        manager = controllers["controller_manager"]["ros__parameters"]
+        self.rate = float(manager["update_rate"])
+        self.trajectory = {
+            n: controllers[n]["ros__parameters"]["joints"]
+            for n, v in manager.items()
+            if isinstance(v, dict) and n in controllers
+        }
+        self.hand = next(n for n in self.trajectory if n != ARM)
+        mjcf = ET.parse(variant_dir / "ros2/mujoco" / f"{self.variant}.xml")
+        self.ranges = {
+            j.get("name"): tuple(map(float, j.get("range", "0 0").split())) for j in mjcf.iter("joint") if j.get("name")
+        }
+        # joint_state_broadcaster publishes every joint of the ros2_control system
+        system = ET.parse(variant_dir / "ros2/urdf" / f"{self.variant}.ros2_control.xacro")
+        self.system_joints = sorted(j.get("name") for r in system.iter("ros2_control") for j in r.iter("joint"))
+        self.node = rclpy.create_node(
+            "svhdesc_test_client", parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
+        )
+        self.states: list[JointState] = []
+        self.clocks: list[float] = []
+        self.controller_states: dict[str, JointTrajectoryControllerState] = {}
+        self._lock = threading.Lock()
+        self.node.create_subscription(JointState, "/joint_states", self._on_state, 100)
+        self.node.create_subscription(Clock, "/clock", self._on_clock, 100)
+        self.actions = {
+            n: ActionClient(self.node, FollowJointTrajectory, f"/{n}/follow_joint_trajectory") for n in self.trajectory
+        }
+        self.list = self.node.create_client(ListControllers, "/controller_manager/list_controllers")
+        self.switch = self.node.create_client(SwitchController, "/controller_manager/switch_controller")
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        threading.Thread(target=self.executor.spin, daemon=True).start()
+
+    # -- plumbing ------------------------------------------------------------------------------
+    def _on_state(self, message: JointState) -> None:
+        with self._lock:
+            self.states.append(message)
+            del self.states[:-2000]
+
+    def _on_clock(self, message: Clock) -> None:
+        with self._lock:
+            self.clocks.append(message.clock.sec + 1e-9 * message.clock.nanosec)
+            del self.clocks[:-5000]
+
+    def now(self) -> float:
+        deadline = time.monotonic() + WALL
+        while not self.clocks:
+            if time.monotonic() > deadline:
+                raise TimeoutError("no /clock")
+            time.sleep(0.01)
+        return self.clocks[-1]
+
+    def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` of simulated time."""
+        until, deadline = self.now() + seconds, time.monotonic() + WALL
+        while self.now() < until:
+            if time.monotonic() > deadline:
+                raise TimeoutError("the simulation stopped")
+            time.sleep(0.005)
+
+    def latest(self) -> float:
+        """The stamp of the newest /joint_states this client has seen (simulated seconds)."""
+        self.now()
+        while not self.states:
+            time.sleep(0.01)
+        return seconds(self.states[-1].header.stamp)
+
+    def at(self, when: float) -> dict[str, float]:
+        """The joints as the first /joint_states stamped at or after ``when`` report them: exact simulated instants,
+        however far this client's callbacks lag behind the node on a busy machine."""
+        deadline = time.monotonic() + WALL
+        while self.latest() < when - 1e-6:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no /joint_states at {when}")
+            time.sleep(0.005)
+        with self._lock:
+            found = next(m for m in self.states if seconds(m.header.stamp) >= when - 1e-6)
+        return dict(zip(found.name, found.position))
+
+    def positions(self) -> dict[str, float]:
+        return self.at(self.latest())
+
+    def ready(self) -> None:
+        for client in self.actions.values():
+            if not client.wait_for_server(timeout_sec=WALL):
+                raise TimeoutError("no action server")
+        for service in (self.list, self.switch):
+            if not service.wait_for_service(timeout_sec=WALL):
+                raise TimeoutError("no controller_manager service")
+        self.now()
+
+    def goal(
+        self,
+        names: list[str],
+        points: list[tuple[float, list[float]]],
+        stamp: Time | None = None,
+        goal_tolerance: float = 0.0,
+        path_tolerance: float = 0.0,
+        goal_time: float = 0.0,
+    ) -> FollowJointTrajectory.Goal:
+        goal = FollowJointTrajectory.Goal()
+        goal.trajectory.joint_names = list(names)
+        if stamp is not None:
+            goal.trajectory.header.stamp = stamp
+        goal.trajectory.points = [
+            JointTrajectoryPoint(positions=list(p), time_from_start=duration(t)) for t, p in points
+        ]
+        if goal_tolerance:
+            goal.goal_tolerance = [JointTolerance(name=n, position=goal_tolerance) for n in names]
+        if path_tolerance:
+            goal.path_tolerance = [JointTolerance(name=n, position=path_tolerance) for n in names]
+        goal.goal_time_tolerance = duration(goal_time)
+        return goal
+
+    def send(self, controller: str, goal: Any) -> Any:
+        """The goal handle (accepted or not)."""
+        return wait(self.actions[controller].send_goal_async(goal))
+
+    def run(self, controller: str, goal: Any) -> dict[str, Any]:
+        handle = self.send(controller, goal)
+        if not handle.accepted:
+            return {"accepted": False}
+        answer = wait(handle.get_result_async())
+        return {
+            "accepted": True,
+            "status": STATUS.get(answer.status, answer.status),
+            "code": answer.result.error_code,
+            "text": answer.result.error_string,
+        }
+
+    def target(self, fraction: float, joints: list[str]) -> list[float]:
+        return [self.ranges[j][0] + fraction * (self.ranges[j][1] - self.ranges[j][0]) for j in joints]
+
+    def listed(self) -> dict[str, dict[str, Any]]:
+        answer = wait(self.list.call_async(ListControllers.Request()))
+        return {
+            c.name: {"state": c.state, "type": c.type, "claimed": list(c.claimed_interfaces)} for c in answer.controller
+        }
+
+    def switched(self, activate: list[str], deactivate: list[str]) -> bool:
+        request = SwitchController.Request(
+            activate_controllers=activate, deactivate_controllers=deactivate, strictness=SwitchController.Request.STRICT
+        )
+        return bool(wait(self.switch.call_async(request)).ok)
+
+
+# -- the checks (each returns what the test asserts on) ------------------------------------------
+def joint_states(c: Client) -> dict[str, Any]:
+    with c._lock:
+        c.states.clear()
+    c.sleep(2.0)
+    with c._lock:
+        window = list(c.states)
+        clocks = list(c.clocks)
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in window]
+    return {
+        "rate": c.rate,
+        "count": len(window),
+        "steps": [round(b - a, 6) for a, b in zip(stamps, stamps[1:])],
+        "names": sorted(window[-1].name),
+        "sizes": [len(window[-1].position), len(window[-1].velocity), len(window[-1].effort)],
+        "expected": c.system_joints,
+        "clock_monotonic": all(b >= a for a, b in zip(clocks, clocks[1:])),
+        "clock_count": len(clocks),
+    }
+
+
+def controller_states(c: Client) -> dict[str, Any]:
+    subscriptions = [
+        c.node.create_subscription(
+            JointTrajectoryControllerState,
+            f"/{name}/controller_state",
+            lambda m, n=name: c.controller_states.__setitem__(n, m),
+            1,
+        )
+        for name in c.trajectory
+    ]
+    c.sleep(0.2)
+    for subscription in subscriptions:
+        c.node.destroy_subscription(subscription)
+    return {
+        n: {
+            "joint_names": list(m.joint_names),
+            "reference": len(m.reference.positions),
+            "feedback": len(m.feedback.positions),
+        }
+        for n, m in c.controller_states.items()
+    }
+
+
+def goals(c: Client) -> dict[str, Any]:
+    """Each goal starts at a stamp 0.5 s ahead, so that its end is known: the joints are read 0.3 s after it."""
+    out: dict[str, Any] = {}
+    for name, joints in c.trajectory.items():
+        start = c.latest() + 0.5
+        target = (
+            c.target(0.3, joints)
+            if name == c.hand
+            else [p + d for p, d in zip([c.positions()[j] for j in joints], [0.2, -0.2, 0.2, -0.2, 0.2, 0.2])]
+        )
+        goal = c.goal(joints, [(1.5, target)], stamp=time_of(start), goal_tolerance=0.05, goal_time=2.0)
+        result = c.run(name, goal)
+        reached = c.at(start + 1.5 + 0.3)
+        result["errors"] = {j: abs(reached[j] - t) for j, t in zip(joints, target)}
+        out[name] = result
+    home = c.run(c.hand, c.goal(c.trajectory[c.hand], [(1.0, c.target(0.0, c.trajectory[c.hand]))]))
+    out["home"] = home
+    return out
+
+
+def malformed(c: Client) -> dict[str, bool]:
+    """Each case: was it accepted? (Jazzy's JTC rejects them all in its goal callback.)"""
+    joints = c.trajectory[c.hand]
+    ok = c.target(0.1, joints)
+    c.sleep(max(0.0, 1.5 - c.now()))  # a stale stamp needs simulated time > 1 s
+    cases = {
+        "unknown joint": c.goal([*joints[:-1], "no_such_joint"], [(1.0, ok)]),
+        "ROS 1 joint name": c.goal([joints[0].replace("Right_Hand_", "right_hand_")], [(1.0, ok[:1])]),
+        "no joint names": c.goal([], [(1.0, [])]),
+        "no points": c.goal(joints, []),
+        "positions size": c.goal(joints, [(1.0, ok[:-1])]),
+        "times not increasing": c.goal(joints, [(1.0, ok), (1.0, ok)]),
+        "stale stamp": c.goal(joints, [(1.0, ok)], stamp=Time(sec=0, nanosec=1000)),
+        "position outside limits": c.goal(joints, [(1.0, [v + 10.0 for v in ok])]),
+        "nan position": c.goal(joints, [(1.0, [float("nan")] * len(joints))]),
+    }
+    found = {case: c.send(c.hand, goal).accepted for case, goal in cases.items()}
+    if ARM in c.trajectory:
+        arm = c.trajectory[ARM]
+        here = [c.positions()[j] for j in arm]
+        found["partial arm goal"] = c.send(ARM, c.goal(arm[:3], [(1.0, here[:3])])).accepted
+    return found
+
+
+def preempt_and_cancel(c: Client) -> dict[str, Any]:
+    joints = c.trajectory[c.hand]
+    first = c.send(c.hand, c.goal(joints, [(3.0, c.target(0.3, joints))]))
+    first_result = first.get_result_async()
+    c.sleep(0.3)
+    second = c.run(c.hand, c.goal(joints, [(1.0, c.target(0.05, joints))]))
+    ended = wait(first_result)
+    target, start = c.target(0.3, joints), c.latest() + 0.5
+    third = c.send(c.hand, c.goal(joints, [(3.0, target)], stamp=time_of(start)))
+    c.at(start + 0.5)
+    cancel = wait(third.cancel_goal_async())
+    canceled = wait(third.get_result_async())
+    before = c.at(start + 1.5)  # uncanceled, the fingers would move on until start + 3 s
+    after = c.at(start + 2.0)
+    return {
+        "preempted": {
+            "status": STATUS.get(ended.status, ended.status),
+            "code": ended.result.error_code,
+            "text": ended.result.error_string,
+        },
+        "preempting": second,
+        "cancel_accepted": len(cancel.goals_canceling) == 1,
+        "canceled": {"status": STATUS.get(canceled.status, canceled.status), "code": canceled.result.error_code},
+        "moved_after_cancel": max(abs(after[j] - before[j]) for j in joints),
+        "short_of_target": max(abs(after[j] - t) for j, t in zip(joints, target)),
+    }
+
+
+def tolerances(c: Client) -> dict[str, Any]:
+    joints = c.trajectory[c.hand]
+    path = c.run(c.hand, c.goal(joints, [(0.5, c.target(0.3, joints))], path_tolerance=1e-4))
+    goal = c.run(c.hand, c.goal(joints, [(0.3, c.target(0.05, joints))], goal_tolerance=1e-6, goal_time=0.02))
+    return {"path": path, "goal": goal}
+
+
+def burst(c: Client, count: int = 1000) -> dict[str, Any]:
+    joints = c.trajectory[c.hand]
+    bad = c.goal([*joints[:-1], "no_such_joint"], [(1.0, c.target(0.1, joints))])
+    accepted, window = 0, 10  # at most the goal service's QoS depth (10) in flight: DDS drops what overflows it
+    for _ in range(count // window):
+        futures = [c.actions[c.hand].send_goal_async(bad) for _ in range(window)]
+        accepted += sum(wait(f).accepted for f in futures)
+    start = c.now()
+    after = c.run(c.hand, c.goal(joints, [(0.5, c.target(0.1, joints))]))
+    c.sleep(0.2)
+    return {"sent": count, "accepted": accepted, "after": after, "clock_advanced": c.now() > start}
+
+
+def killed_client(c: Client, variant_dir: Path) -> dict[str, Any]:
+    child = subprocess.Popen(
+        [sys.executable, __file__, "--die", str(variant_dir), c.hand], stdout=subprocess.PIPE, text=True
+    )
+    line = child.stdout.readline().strip() if child.stdout else ""
+    child.wait(WALL)
+    c.sleep(0.3)
+    joints = c.trajectory[c.hand]
+    after = c.run(c.hand, c.goal(joints, [(0.5, c.target(0.0, joints))]))
+    return {"child": line, "returncode": child.returncode, "after": after}
+
+
+def switching(c: Client) -> dict[str, Any]:
+    joints = c.trajectory[c.hand]
+    before = c.listed()
+    off = c.switched([], [c.hand])
+    listed_off = c.listed()[c.hand]
+    refused = c.send(c.hand, c.goal(joints, [(0.5, c.target(0.1, joints))])).accepted
+    on = c.switched([c.hand], [])
+    both = c.switched([c.hand], [c.hand])
+    unknown = c.switched(["no_such_controller"], [])
+    return {
+        "before": before,
+        "deactivated": off,
+        "listed_inactive": listed_off,
+        "goal_accepted_while_inactive": refused,
+        "activated": on,
+        "listed_after": c.listed()[c.hand],
+        "start_and_stop_at_once": both,
+        "unknown_strict": unknown,
+    }
+
+
+def die(variant_dir: Path, controller: str) -> None:
+    c = Client(variant_dir)
+    c.ready()
+    joints = c.trajectory[controller]
+    handle = c.send(controller, c.goal(joints, [(5.0, c.target(0.3, joints))]))
+    print("accepted" if handle.accepted else "rejected", flush=True)
+    c.sleep(0.2)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def read_recording(path: Path) -> dict[str, Any]:
+    """What rosbags (an MCAP reader of its own, not rclpy) finds in the node's recording."""
+    from rosbags.highlevel import AnyReader
+
+    topics: dict[str, dict[str, Any]] = {}
+    with AnyReader([path]) as reader:
+        for connection, at, raw in reader.messages():
+            message = reader.deserialize(raw, connection.msgtype)
+            topic = topics.setdefault(connection.topic, {"type": connection.msgtype, "count": 0, "times": []})
+            topic["count"] += 1
+            topic["times"].append(at)
+            if connection.topic == "/joint_states":
+                topic["names"] = sorted(message.name)
+                stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+                topic["stamp_is_log_time"] = topic.get("stamp_is_log_time", True) and stamp == at
+            if connection.msgtype.endswith("JointTrajectoryControllerState"):
+                topic["joint_names"] = list(message.joint_names)
+    for topic in topics.values():
+        times = topic.pop("times")
+        topic["increasing"] = all(b > a for a, b in zip(times, times[1:]))
+        topic["steps_ns"] = sorted({b - a for a, b in zip(times, times[1:])})
+    return topics
+
+
+def main() -> None:
+    if sys.argv[1] == "--recording":
+        Path(sys.argv[3]).write_text(json.dumps(read_recording(Path(sys.argv[2])), indent=1, sort_keys=True))
+        return
+    rclpy.init(args=["client"])
+    if sys.argv[1] == "--die":
+        die(Path(sys.argv[2]), sys.argv[3])
+        return
+    variant_dir, out = Path(sys.argv[1]), Path(sys.argv[2])
+    c = Client(variant_dir)
+    c.ready()
+    report: dict[str, Any] = {"variant": c.variant, "hand": c.hand, "controllers": sorted(c.trajectory)}
+    checks = [
+        ("joint_states", lambda: joint_states(c)),
+        ("controller_states", lambda: controller_states(c)),
+        ("goals", lambda: goals(c)),
+        ("malformed", lambda: malformed(c)),
+        ("preempt_and_cancel", lambda: preempt_and_cancel(c)),
+        ("tolerances", lambda: tolerances(c)),
+        ("burst", lambda: burst(c)),
+        ("killed_client", lambda: killed_client(c, variant_dir)),
+        ("switching", lambda: switching(c)),
+    ]
+    for name, check in checks:
+        began = time.monotonic()
+        try:
+            report[name] = check()
+        except Exception as exc:  # noqa: BLE001 - the report says which check broke and why
+            report[name] = {"error": f"{type(exc).__name__}: {exc}"}
+        report.setdefault("wall", {})[name] = round(time.monotonic() - began, 2)
+    out.write_text(json.dumps(report, indent=1, sort_keys=True))
+    c.executor.shutdown(timeout_sec=5.0)
+    c.node.destroy_node()
+    rclpy.try_shutdown()
+    sys.stdout.flush()
+    # Python's exit then aborts in a DDS thread's destructor ("terminate called without an active exception");
+    # the report is written, so leave at once.
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,272 @@
+"""``svhdesc sim VARIANT --ros2`` against a real rclpy client of its own (tests/ros2/client.py, no svhdesc code).
+
+Runs from the main suite (.venv): for each variant one node process (with ``--record``) and one client run inside a
+private network namespace (``unshare -n``, loopback only) with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, so no DDS
+packet leaves the machine. Both run in the ROS 2 venv's Python: ``.venv-ros2/bin/python`` of this checkout, or
+$SVHDESC_ROS2_PYTHON; the tests skip, saying why, where it or ``unshare`` is missing. The client writes one JSON
+report; each test asserts on its part.
+
+Seeded faults (each made its test fail, on both variants, in one run with all of them applied; then reverted):
+- joint_states: publishing every second update (svhdesc/ros2/node.py update(): ``if step % 2``) -> steps of 0.016 s;
+- controller_state: ``joint_names`` left in the simulation's names -> test_controller_state fails;
+- goals: the hand's tolerances' goal merged from the defaults only (goal tolerance ignored) is not visible, so the
+  seeded fault is the goal's positions sent to the simulation in reverse joint order -> errors > 0.05 rad;
+- malformed: core.check() returning None (accept everything) -> accepted malformed goals;
+- preemption: JAZZY.preempted_code set to SUCCESSFUL -> code 0, not -1;
+- cancel: on_cancel not holding (core.cancel skipped) -> the goal is not canceled / keeps moving;
+- tolerances: zero_goal_time_waits ignored is not reachable here; seeded: the adapter dropping path_tolerance ->
+  the path goal succeeds instead of aborting with -4;
+- burst and killed client: the node's _drain re-raising a handler's exception -> the node dies, later goals time out;
+- switching: ros2_state returning "running" (ROS 1's word) -> state != "active";
+- recording: Recorder.write skipping controller states -> the topic is missing in rosbags' reading.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CLIENT = Path(__file__).with_name("client.py")
+PYTHON = Path(os.environ.get("SVHDESC_ROS2_PYTHON", ROOT / ".venv-ros2" / "bin" / "python"))
+VARIANTS = ("svh_right", "ur5_svh_right")
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+
+def _why_not() -> str | None:
+    if not PYTHON.is_file():
+        return f"no ROS 2 Python at {PYTHON} (bash tools/install.sh ros2, or set SVHDESC_ROS2_PYTHON)"
+    if shutil.which("unshare") is None or shutil.which("ip") is None:
+        return "unshare and ip (util-linux, iproute2) make the private network namespace"
+    probe = subprocess.run(
+        ["unshare", "-n", "true"], capture_output=True, text=True, timeout=30, check=False
+    )  # root, or a kernel that lets users make network namespaces
+    if probe.returncode != 0:
+        return f"cannot make a network namespace: {probe.stderr.strip()}"
+    imports = subprocess.run(
+        [str(PYTHON), "-c", "import rclpy, control_msgs.action, controller_manager_msgs.srv, rosbags, mcap"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    if imports.returncode != 0:
+        return f"{PYTHON} lacks the ros2 extra: {imports.stderr.strip().splitlines()[-1:]}"
+    return None
+
+
+@pytest.fixture(scope="module", params=VARIANTS)
+def served(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """One node (recording) and one client run for the variant; the client's report, the node's exit and log."""
+    why = _why_not()
+    if why:
+        pytest.skip(why)
+    from svhdesc.model import get
+
+    variant = request.param
+    work = tmp_path_factory.mktemp(f"ros2-{variant}")
+    python, client = shlex.quote(str(PYTHON)), shlex.quote(str(CLIENT))
+    recording, report = work / "run.mcap", work / "report.json"
+    script = f"""
+ip link set lo up
+{python} -m svhdesc.cli sim {variant} --ros2 --record {recording} > {work}/node.log 2>&1 &
+node=$!
+{python} {client} {shlex.quote(str(get(variant).directory))} {report} > {work}/client.log 2>&1
+echo "client $?" > {work}/exits
+kill -INT $node
+wait $node
+echo "node $?" >> {work}/exits
+{python} {client} --recording {recording} {work}/recording.json >> {work}/client.log 2>&1
+"""
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),  # the checkout under test
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "ROS_LOG_DIR": str(work / "roslog"),
+    }
+    env.pop("ROS_DOMAIN_ID", None)
+    subprocess.run(["unshare", "-n", "sh", "-c", script], env=env, timeout=400, check=False)
+    log = (work / "node.log").read_text() if (work / "node.log").exists() else ""
+    client_log = (work / "client.log").read_text() if (work / "client.log").exists() else ""
+    assert report.exists(), f"no client report\nclient:\n{client_log[-3000:]}\nnode:\n{log[-3000:]}"
+    exits = dict(line.split() for line in (work / "exits").read_text().splitlines())
+    return {
+        "variant": variant,
+        "report": json.loads(report.read_text()),
+        "exits": exits,
+        "log": log,
+        "recording": recording,
+        "read_back": json.loads((work / "recording.json").read_text()) if (work / "recording.json").exists() else {},
+    }
+
+
+def _part(served: dict[str, Any], name: str) -> Any:
+    part = served["report"][name]
+    assert not (isinstance(part, dict) and "error" in part), f"{served['variant']}: {name}: {part}"
+    return part
+
+
+def test_joint_states_every_joint_at_the_update_rate(served: dict[str, Any]) -> None:
+    """/joint_states: every joint of the ros2_control system (ROS 2 names, coupled joints too), position, velocity
+    and effort each, stamped every 1/update_rate (125 Hz: 0.008 s) of simulated time: the recording (all the node
+    published) has every step exactly one period; the client, whose reliable KEEP_LAST(10) subscription may lose
+    samples on a busy machine, sees only whole periods, most of them single. /clock never goes back. Seeded fault:
+    publishing every second update -> steps of 0.016 s."""
+    states = _part(served, "joint_states")
+    assert states["rate"] == 125.0
+    assert states["names"] == states["expected"]
+    assert states["sizes"] == [len(states["expected"])] * 3
+    period = 1.0 / states["rate"]
+    assert states["count"] >= 200  # 2 s of simulated time
+    steps = states["steps"]
+    assert all(step > 0 and abs(step / period - round(step / period)) < 1e-3 for step in steps), sorted(set(steps))
+    assert sum(abs(step - period) < 1e-6 for step in steps) >= 0.8 * len(steps), sorted(set(steps))
+    assert served["read_back"]["/joint_states"]["steps_ns"] == [round(period * 1e9)]
+    assert states["clock_monotonic"] and states["clock_count"] >= 200
+
+
+def test_controller_state(served: dict[str, Any]) -> None:
+    """<controller>/controller_state carries the controller's joints in the yaml's order and ROS 2 names. Seeded
+    fault: the simulation's names (right_hand_...) -> fails."""
+    report = served["report"]
+    states = _part(served, "controller_states")
+    assert sorted(states) == report["controllers"]
+    for state in states.values():
+        assert all(not n.startswith("right_hand_") for n in state["joint_names"])
+        assert state["reference"] == state["feedback"] == len(state["joint_names"])
+
+
+def test_hand_and_arm_goals_succeed_within_tolerance(served: dict[str, Any]) -> None:
+    """A goal per controller (hand: 30 % of each channel's range; arm: 0.2 rad per joint) succeeds with code 0 and
+    every joint ends within 0.05 rad; back home too. Seeded fault: goal positions in reversed joint order."""
+    goals = _part(served, "goals")
+    for controller in served["report"]["controllers"]:
+        result = goals[controller]
+        assert (result["status"], result["code"]) == ("succeeded", 0), result
+        assert max(result["errors"].values()) < 0.05, result["errors"]
+    assert (goals["home"]["status"], goals["home"]["code"]) == ("succeeded", 0)
+
+
+def test_malformed_goals_are_rejected(served: dict[str, Any]) -> None:
+    """Jazzy JTC's goal callback rejects (no result, so no error code) unknown and ROS 1 joint names, no joints,
+    no points, size mismatch, times not increasing, a non-zero stamp that ends in the past, and (svhdesc's own
+    additions) positions outside the limits or not finite; the arm refuses a partial goal
+    (allow_partial_joints_goal false). Seeded fault: core.check() accepting everything."""
+    found = _part(served, "malformed")
+    assert not any(found.values()), [case for case, accepted in found.items() if accepted]
+    assert ("partial arm goal" in found) == ("ur5" in served["variant"])
+
+
+def test_preemption_and_cancel_with_jazzy_codes(served: dict[str, Any]) -> None:
+    """A new goal preempts the active one: CANCELED, INVALID_GOAL (-1), "Current goal cancelled due to new incoming
+    action." (Jazzy's preempt_active_goal); the new one succeeds. A client's cancel: CANCELED with code 0, and the
+    hand holds where it was (short of the target, no longer moving). Seeded faults: JAZZY.preempted_code
+    SUCCESSFUL -> code 0; cancel not holding -> the hand moves on."""
+    part = _part(served, "preempt_and_cancel")
+    preempted = part["preempted"]
+    assert (preempted["status"], preempted["code"]) == ("canceled", -1)
+    assert preempted["text"] == "Current goal cancelled due to new incoming action."
+    assert (part["preempting"]["status"], part["preempting"]["code"]) == ("succeeded", 0)
+    assert part["cancel_accepted"]
+    assert part["canceled"] == {"status": "canceled", "code": 0}
+    assert part["moved_after_cancel"] < 0.01
+    assert part["short_of_target"] > 0.1
+
+
+def test_tolerance_violations_abort_with_jazzy_codes(served: dict[str, Any]) -> None:
+    """A goal's path tolerance of 1e-4 rad aborts with PATH_TOLERANCE_VIOLATED (-4); a goal tolerance of 1e-6 rad
+    with goal_time_tolerance 0.02 s aborts with GOAL_TOLERANCE_VIOLATED (-5); texts name ROS 2 joints. Seeded
+    fault: the adapter dropping the goal's path_tolerance -> the path goal succeeds."""
+    part = _part(served, "tolerances")
+    assert (part["path"]["status"], part["path"]["code"]) == ("aborted", -4), part["path"]
+    assert (part["goal"]["status"], part["goal"]["code"]) == ("aborted", -5), part["goal"]
+    assert "Right_Hand_" in part["path"]["text"] and "right_hand_" not in part["path"]["text"]
+
+
+def test_a_thousand_malformed_goals_are_survived(served: dict[str, Any]) -> None:
+    """1000 goals naming an unknown joint: all rejected; the simulation goes on and the next goal succeeds.
+    Seeded fault: the node's work queue re-raising a handler's exception with a goal that raises -> node gone."""
+    part = _part(served, "burst")
+    assert (part["sent"], part["accepted"]) == (1000, 0)
+    assert (part["after"]["status"], part["after"]["code"]) == ("succeeded", 0)
+    assert part["clock_advanced"]
+
+
+def test_a_client_killed_mid_goal(served: dict[str, Any]) -> None:
+    """A second client process sends a 5 s goal and is killed (SIGKILL) while it runs; the node serves on: a new
+    goal preempts the orphan and succeeds. Seeded fault: as the burst's."""
+    part = _part(served, "killed_client")
+    assert (part["child"], part["returncode"]) == ("accepted", -9)
+    assert (part["after"]["status"], part["after"]["code"]) == ("succeeded", 0)
+
+
+def test_controller_manager_lists_and_switches(served: dict[str, Any]) -> None:
+    """list_controllers: joint_state_broadcaster and each controller "active" with their yaml types, claiming
+    <joint>/position; switch_controller (STRICT) deactivates the hand (listed inactive, claiming nothing, goals
+    rejected) and activates it again; starting and stopping one controller at once, or an unknown one, fails.
+    Seeded fault: ros2_state answering ROS 1's "running"."""
+    part = _part(served, "switching")
+    report = served["report"]
+    hand = report["hand"]
+    assert set(part["before"]) == {"joint_state_broadcaster", *report["controllers"]}
+    assert all(c["state"] == "active" for c in part["before"].values())
+    assert part["before"][hand]["type"] == "joint_trajectory_controller/JointTrajectoryController"
+    assert all(i.endswith("/position") for i in part["before"][hand]["claimed"])
+    assert part["deactivated"] and part["activated"]
+    assert part["listed_inactive"]["state"] == "inactive" and part["listed_inactive"]["claimed"] == []
+    assert not part["goal_accepted_while_inactive"]
+    assert part["listed_after"]["state"] == "active"
+    assert not part["start_and_stop_at_once"] and not part["unknown_strict"]
+
+
+def test_node_stopped_cleanly_and_logged_rejections(served: dict[str, Any]) -> None:
+    """SIGINT ends the node with exit 0 and no traceback; rejected goals are logged with their reason."""
+    assert served["exits"] == {"client": "0", "node": "0"}, served["log"][-2000:]
+    assert "Traceback" not in served["log"]
+    assert "goal rejected" in served["log"] and "no_such_joint" in served["log"]
+
+
+def test_recording_reads_back_with_rosbags(served: dict[str, Any]) -> None:
+    """--record: the MCAP file (renamed into place when the node stopped) holds /clock, /joint_states and each
+    controller's controller_state as ROS 2 CDR with their ros2msg definitions, which rosbags (its own MCAP reader
+    and CDR decoder) reads back: every joint, log time = the message's stamp, times increasing. Seeded fault:
+    Recorder.write skipping controller states -> the topic is missing."""
+    assert served["recording"].is_file()
+    assert not list(served["recording"].parent.glob(".run.mcap.*"))  # the temporary is gone
+    topics = served["read_back"]
+    report = served["report"]
+    wanted = {"/clock", "/joint_states", *(f"/{c}/controller_state" for c in report["controllers"])}
+    assert set(topics) == wanted
+    assert topics["/joint_states"]["type"] == "sensor_msgs/msg/JointState"
+    assert topics["/clock"]["type"] == "rosgraph_msgs/msg/Clock"
+    assert topics["/joint_states"]["names"] == report["joint_states"]["expected"]
+    assert topics["/joint_states"]["stamp_is_log_time"]
+    assert all(t["increasing"] and t["count"] > 100 for t in topics.values())
+
+
+@pytest.mark.parametrize("python", [sys.executable])
+def test_without_rclpy_one_error_line(python: str) -> None:
+    """Run from .venv (no rclpy): one `error:` line naming .venv-ros2 and tools/install.sh ros2, exit 2."""
+    result = subprocess.run(
+        [python, "-m", "svhdesc.cli", "sim", "svh_right", "--ros2", "--duration", "0.1"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=120,
+        check=False,
+    )
+    if "error:" not in result.stderr and result.returncode == 0:
+        pytest.skip("this Python has rclpy")
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and ".venv-ros2" in lines[0]
+    assert "tools/install.sh ros2" in lines[0]
