@@ -195,15 +195,15 @@ class SimNode:
         """One control update (after a period of physics): False once ROS 2 shuts down (SIGINT, SIGTERM)."""
         if not self._rclpy.ok():
             return False
-        for controller in self.controllers:
-            controller.update()
         try:
+            for controller in self.controllers:
+                controller.update()
             self.publish()
+            self._drain()
         except Exception:
             if self._rclpy.ok():
                 raise
-            return False  # shut down by a signal between the check above and the publication
-        self._drain()
+            return False  # shut down by a signal between the check above and a publication
         return self._rclpy.ok()
 
     def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:

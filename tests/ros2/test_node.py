@@ -28,7 +28,6 @@ import os
 import shlex
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -251,22 +250,3 @@ def test_recording_reads_back_with_rosbags(served: dict[str, Any]) -> None:
     assert topics["/joint_states"]["names"] == report["joint_states"]["expected"]
     assert topics["/joint_states"]["stamp_is_log_time"]
     assert all(t["increasing"] and t["count"] > 100 for t in topics.values())
-
-
-@pytest.mark.parametrize("python", [sys.executable])
-def test_without_rclpy_one_error_line(python: str) -> None:
-    """Run from .venv (no rclpy): one `error:` line naming .venv-ros2 and tools/install.sh ros2, exit 2."""
-    result = subprocess.run(
-        [python, "-m", "svhdesc.cli", "sim", "svh_right", "--ros2", "--duration", "0.1"],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-        timeout=120,
-        check=False,
-    )
-    if "error:" not in result.stderr and result.returncode == 0:
-        pytest.skip("this Python has rclpy")
-    assert result.returncode == 2
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:") and ".venv-ros2" in lines[0]
-    assert "tools/install.sh ros2" in lines[0]
