@@ -37,7 +37,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-WALL = 60.0  # the most any single answer may take (wall-clock seconds)
+WALL = float(os.environ.get("SVHDESC_CLIENT_WALL", "60"))  # the most one answer may take (wall-clock s)
 ARM = "scaled_joint_trajectory_controller"
 STATUS = {
     GoalStatus.STATUS_SUCCEEDED: "succeeded",

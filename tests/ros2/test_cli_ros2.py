@@ -1,8 +1,8 @@
 """``svhdesc sim --ros2`` and ``--record`` on the command line, without ROS 2: bad combinations and a Python without
 rclpy give one ``error:`` line and exit 2 (no traceback). Fast: nothing starts.
 
-Seeded fault: dropping the rclpy import check in svhdesc/ros2/system.py (a bare ``import rclpy``) turns the missing
-module into the generic missing-package message without .venv-ros2 -> test_without_rclpy_one_error_line fails."""
+Seeded fault: svhdesc/ros2/system.py's import_rclpy letting ImportError through (a bare ``import rclpy``) ->
+test_without_rclpy_one_error_line fails (a traceback, not one line naming .venv-ros2)."""
 
 from __future__ import annotations
 

@@ -6,19 +6,21 @@ packet leaves the machine. Both run in the ROS 2 venv's Python: ``.venv-ros2/bin
 $SVHDESC_ROS2_PYTHON; the tests skip, saying why, where it or ``unshare`` is missing. The client writes one JSON
 report; each test asserts on its part.
 
-Seeded faults (each made its test fail, on both variants, in one run with all of them applied; then reverted):
-- joint_states: publishing every second update (svhdesc/ros2/node.py update(): ``if step % 2``) -> steps of 0.016 s;
-- controller_state: ``joint_names`` left in the simulation's names -> test_controller_state fails;
-- goals: the hand's tolerances' goal merged from the defaults only (goal tolerance ignored) is not visible, so the
-  seeded fault is the goal's positions sent to the simulation in reverse joint order -> errors > 0.05 rad;
-- malformed: core.check() returning None (accept everything) -> accepted malformed goals;
-- preemption: JAZZY.preempted_code set to SUCCESSFUL -> code 0, not -1;
-- cancel: on_cancel not holding (core.cancel skipped) -> the goal is not canceled / keeps moving;
-- tolerances: zero_goal_time_waits ignored is not reachable here; seeded: the adapter dropping path_tolerance ->
-  the path goal succeeds instead of aborting with -4;
-- burst and killed client: the node's _drain re-raising a handler's exception -> the node dies, later goals time out;
-- switching: ros2_state returning "running" (ROS 1's word) -> state != "active";
-- recording: Recorder.write skipping controller states -> the topic is missing in rosbags' reading.
+Seeded faults, applied together in one run (A) or alone (B, C), each failing its tests on both variants, then
+reverted:
+- A: joint_states published every second update -> test_joint_states (steps of 0.016 s, in the recording too);
+  controller_state's joint_names left in the simulation's names (right_hand_...) -> test_controller_state; the
+  goal's joint names reversed in the adapter -> test_hand_and_arm_goals (errors > 0.05 rad); JAZZY.preempted_code
+  SUCCESSFUL and the adapter's cancel doing nothing -> test_preemption_and_cancel; the goal's path_tolerance dropped
+  by the adapter -> test_tolerance_violations (the path goal succeeds); ros2_state answering ROS 1's "running" ->
+  test_controller_manager; Recorder.write skipping controller states -> test_recording (topic missing). The tests
+  without a fault in A passed in that run.
+- B: the goal callback raising on a rejected goal (rclpy's executor thread dies, the node stops answering) ->
+  test_malformed_goals, test_a_thousand_malformed_goals, test_a_client_killed_mid_goal.
+- C: core.check() accepting every goal -> test_malformed_goals (and the burst and switching tests).
+- test_node_stopped_cleanly has no reliable seeded fault: without the node's shutdown guard in update(), a SIGINT that
+  lands inside a publication ends it with exit 1 and an RCLError traceback (seen in development, on one variant of
+  two); one that lands while the simulation sleeps still ends cleanly.
 """
 
 from __future__ import annotations
