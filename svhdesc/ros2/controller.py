@@ -93,6 +93,7 @@ class TrajectoryController:
     ) -> None:
         """``joints``: the simulation's names; ``to_ros`` maps them to the ROS 2 driver's. ``wake`` wakes the
         executor after the simulation thread finished a goal (its execute coroutine then returns)."""
+        from action_msgs.msg import GoalStatus
         from builtin_interfaces.msg import Time
         from control_msgs.action import FollowJointTrajectory
         from control_msgs.msg import JointTrajectoryControllerState
@@ -101,7 +102,7 @@ class TrajectoryController:
         from trajectory_msgs.msg import JointTrajectoryPoint
 
         self._Time, self._Action, self._Point = Time, FollowJointTrajectory, JointTrajectoryPoint
-        self._Future = Future
+        self._Future, self._canceling = Future, GoalStatus.STATUS_CANCELING
         self.name = name
         self.joints = list(joints)
         self._ros_names = [to_ros[j] for j in joints]
@@ -162,7 +163,7 @@ class TrajectoryController:
         elif status is Status.ABORTED:
             goal_handle.abort()
         else:
-            if goal_handle.status != 3:  # GoalStatus.STATUS_CANCELING: preempted or stopped, not canceled
+            if goal_handle.status != self._canceling:  # preempted or stopped, not canceled by its client
                 _to_canceling(goal_handle)
             goal_handle.canceled()
         return result
