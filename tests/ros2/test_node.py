@@ -43,18 +43,28 @@ VARIANTS = ("svh_right", "ur5_svh_right")
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
+def _namespace() -> list[str] | str:
+    """The command that makes a private network namespace: ``unshare -n`` as root, else with a user namespace
+    (``unshare -r -n``, where the kernel allows it); or why neither works."""
+    if shutil.which("unshare") is None or shutil.which("ip") is None:
+        return "unshare and ip (util-linux, iproute2) make the private network namespace"
+    why = ""
+    for command in (["unshare", "-n"], ["unshare", "-r", "-n"]):
+        probe = subprocess.run([*command, "true"], capture_output=True, text=True, timeout=30, check=False)
+        if probe.returncode == 0:
+            return command
+        why = probe.stderr.strip()
+    return f"cannot make a network namespace: {why}"
+
+
 def _why_not() -> str | None:
     if not PYTHON.is_file():
         return f"no ROS 2 Python at {PYTHON} (bash tools/install.sh ros2, or set SVHDESC_ROS2_PYTHON)"
-    if shutil.which("unshare") is None or shutil.which("ip") is None:
-        return "unshare and ip (util-linux, iproute2) make the private network namespace"
-    probe = subprocess.run(
-        ["unshare", "-n", "true"], capture_output=True, text=True, timeout=30, check=False
-    )  # root, or a kernel that lets users make network namespaces
-    if probe.returncode != 0:
-        return f"cannot make a network namespace: {probe.stderr.strip()}"
+    namespace = _namespace()
+    if isinstance(namespace, str):
+        return namespace
     imports = subprocess.run(
-        [str(PYTHON), "-c", "import rclpy, control_msgs.action, controller_manager_msgs.srv, rosbags, mcap"],
+        [str(PYTHON), "-c", "import rclpy, control_msgs.action, controller_manager_msgs.srv, rosbags, mcap_ros2"],
         capture_output=True,
         text=True,
         timeout=60,
@@ -95,7 +105,9 @@ echo "node $?" >> {work}/exits
         "ROS_LOG_DIR": str(work / "roslog"),
     }
     env.pop("ROS_DOMAIN_ID", None)
-    subprocess.run(["unshare", "-n", "sh", "-c", script], env=env, timeout=400, check=False)
+    namespace = _namespace()
+    assert isinstance(namespace, list)
+    subprocess.run([*namespace, "sh", "-c", script], env=env, timeout=400, check=False)
     log = (work / "node.log").read_text() if (work / "node.log").exists() else ""
     client_log = (work / "client.log").read_text() if (work / "client.log").exists() else ""
     assert report.exists(), f"no client report\nclient:\n{client_log[-3000:]}\nnode:\n{log[-3000:]}"
