@@ -268,7 +268,9 @@ def test_preemption_cancel_and_partial_hand_goals(ros: dict[str, Any]) -> None:
     assert first.wait_for_result(rospy.Duration(10)) and first.get_state() == GoalStatus.PREEMPTED
     rospy.sleep(0.3)
     after = _positions(ros)
-    assert after["right_hand_Pinky"] == pytest.approx(0.3, abs=2e-3)
+    # 5 mrad as the hold checks below: a busy machine starts the second goal later in sim time, and the Pinky's servo
+    # was seen 2.4 mrad short 0.3 s after success (its goal tolerance is wider).
+    assert after["right_hand_Pinky"] == pytest.approx(0.3, abs=5e-3)
     assert after["right_hand_Thumb_Flexion"] == pytest.approx(before["right_hand_Thumb_Flexion"], abs=2e-3)
 
     first.send_goal(_goal(ros, ["right_hand_Pinky"], [[0.9]], [20.0]))
