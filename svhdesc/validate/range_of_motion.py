@@ -222,27 +222,8 @@ class _Strokes:
             _stroke(model, data, actuator, goal, adr, tol, self.hand_dofs if notes is None else dofs)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                blockers = _blocking(model, data, moving, before)
-                if blockers:
-                    entry.setdefault("blocked_by", {})[label] = blockers
-                text = f"{self.short(name)} stops at {q:.3f} of {goal:.4g} going {label}"
-                if not low - tol <= q <= high + tol:  # past the end: the limit gave way to the servo
-                    problems.append(
-                        f"{self.short(name)} goes through its limit to {q:.3f} (range {low:.4g} .. {high:.4g})"
-                    )
-                elif not blockers and notes is not None and (bound := _effort_bound(model, data, joint, actuator)):
-                    entry.setdefault("effort_bound", {})[label] = bound
-                    notes.append(text + f", nothing in contact: {bound}, its rating stops it there (not a failure)")
-                elif not blockers:
-                    problems.append(
-                        text + ", nothing in contact and its drive below its force limit: its servo is too soft "
-                        "(for its friction) or too slow"
-                    )
-                elif notes is not None:
-                    entry["own_robot"] = True
-                    notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
-                else:
-                    problems.append(text + f", blocked by {blockers[0]}")
+                miss = _Miss(name, label, goal, q, (low, high), tol, _blocking(model, data, moving, before))
+                self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))
                 got = float(data.qpos[model.jnt_qposadr[model.joint(e.joint).id]])
@@ -254,3 +235,47 @@ class _Strokes:
         entry["reached"] = [lowest, reached["upper"]]
         entry["fraction"] = (reached["upper"] - lowest) / (high - low) if high > low else 1.0
         return entry
+
+    def judge(
+        self,
+        miss: _Miss,
+        joint: int,
+        actuator: int,
+        entry: dict[str, Any],
+        problems: list[str],
+        notes: list[str] | None,
+    ) -> None:
+        """An end missed: through the limit, stopped where its rating stops it, by a servo too soft, by its own
+        robot (an arm joint: a note) or by a contact (a channel: a problem)."""
+        name, (low, high), blockers = self.short(miss.joint), miss.range, miss.blockers
+        if blockers:
+            entry.setdefault("blocked_by", {})[miss.label] = blockers
+        text = f"{name} stops at {miss.reached:.3f} of {miss.goal:.4g} going {miss.label}"
+        if not low - miss.tol <= miss.reached <= high + miss.tol:  # past the end: the limit gave way to the servo
+            problems.append(f"{name} goes through its limit to {miss.reached:.3f} (range {low:.4g} .. {high:.4g})")
+        elif not blockers and notes is not None and (bound := _effort_bound(self.model, self.data, joint, actuator)):
+            entry.setdefault("effort_bound", {})[miss.label] = bound
+            notes.append(text + f", nothing in contact: {bound}, its rating stops it there (not a failure)")
+        elif not blockers:
+            problems.append(
+                text + ", nothing in contact and its drive below its force limit: its servo is too soft "
+                "(for its friction) or too slow"
+            )
+        elif notes is not None:
+            entry["own_robot"] = True
+            notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
+        else:
+            problems.append(text + f", blocked by {blockers[0]}")
+
+
+@dataclass(frozen=True)
+class _Miss:
+    """A stroke that ended more than ``tol`` from its goal."""
+
+    joint: str
+    label: str  # start, upper, lower
+    goal: float
+    reached: float
+    range: tuple[float, float]
+    tol: float
+    blockers: list[str]  # body pairs in contact, deepest new first
