@@ -7,7 +7,8 @@ coupling that makes two bodies moved by one joint meet (the pair is named althou
 friction (range_of_motion fails); a slow shoulder (range_of_motion gives it its time); a soft wrist limit
 (range_of_motion: through its limit); a keyframe folding the arm into itself (self_collision fails); MuJoCo Warp and
 MJX not importable (batch skipped with the reason, exit 0); MJX's put_model refusing a cylinder-mesh pair (that half
-skipped); gravity 1e12 (load_limits names the joint that ran away).
+skipped); gravity 1e12 (load_limits names the joint that ran away); validate.tip_load ignored (the derived 50 N
+instead of the config's 7 N).
 """
 
 from __future__ import annotations
@@ -170,6 +171,33 @@ def test_fingertip_load_is_twice_the_drive_force_at_the_tip(tmp_path: Path) -> N
     assert tip_loads(model, [tip], {"finger_slide", "wrist"}) == [pytest.approx(LOAD_FACTOR * 20.0)]
     assert tip_loads(model, [tip], {"wrist"}) == [pytest.approx(LOAD_MAX)]  # 2 x 230 N capped
     assert tip_loads(model, [tip], set()) == [pytest.approx(LOAD_MAX)]
+
+
+def configured_arm(tmp_path: Path, validate: str) -> ModelPair:
+    """arm3 with a configuration: its finger a fingertip, and ``validate`` as the config's validate section."""
+    shutil.copy(ARM, tmp_path / "arm3.xml")
+    config = tmp_path / "arm3.yaml"
+    config.write_text(f"hand: {{fingertips: [finger]}}\n{validate}\nvariants:\n  arm3: {{xacro: arm3.urdf}}\n")
+    return load_pair(tmp_path / "arm3.urdf", tmp_path / "arm3.xml", config_path=config)
+
+
+def test_tip_load_from_the_config(tmp_path: Path) -> None:
+    """validate.tip_load sets the push on every fingertip; without it, the derived load (50 N here: this config names
+    no channel, so no hand drive limits the finger). Seeded: load_limits ignoring the setting gave 50 N here."""
+    given = only(check_load_limits(configured_arm(tmp_path, "validate: {tip_load: 7}"), OPTIONS))
+    assert given.data["loads_n"] == {"finger": 7.0}
+    derived = only(check_load_limits(configured_arm(tmp_path, ""), OPTIONS))
+    assert derived.data["loads_n"] == {"finger": pytest.approx(LOAD_MAX)}
+
+
+def test_bad_tip_load_is_one_error_line(tmp_path: Path) -> None:
+    shutil.copy(ARM, tmp_path / "arm3.xml")
+    (tmp_path / "arm3.yaml").write_text("validate: {tip_load: -5}\nvariants:\n  arm3: {xacro: arm3.urdf}\n")
+    args = ("validate", "--config", str(tmp_path / "arm3.yaml"), "--out", str(tmp_path), "--checks", "load_limits")
+    result = run_cli(*args, in_process=True)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1, result.stderr
+    assert lines[0].startswith("error:") and "validate.tip_load" in lines[0], lines[0]
 
 
 @pytest.mark.skipif(not (SVH / "svh_right.xml").is_file(), reason="generated/svh_right is not built")

@@ -1,4 +1,4 @@
-"""`svhdesc init` -> `svhdesc build` -> `svhdesc validate`, unedited, exit 0, for the robots issue 26 names: the Allegro
+"""`svhdesc init` -> `svhdesc build` -> `svhdesc validate`, unedited, exit 0, for six third-party robots: the Allegro
 hand, the Panda, UR10 and Kinova j2s6s200 arms of example-robot-data (without a hand), the Panda of pybullet_data and
 Talos (talos_reduced).
 
