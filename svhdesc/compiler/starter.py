@@ -30,6 +30,7 @@ STIFF_AT = {"revolute": 0.1, "continuous": 0.1, "prismatic": 0.005}
 DEFAULT_KP = 100.0  # a joint whose source gives no effort
 ARMATURE = 0.1  # kg m^2 or kg: the channels' and coupled joints' armature
 GUESSED_MASS = 0.1  # kg: a link with geometry and no inertial in the source (init says so; weigh it)
+HOME_CLEARANCE = 0.1  # of a joint's range: how far `home` keeps clear of its stops
 
 
 @dataclass(frozen=True)
@@ -103,10 +104,22 @@ def _read(source: Path, given: dict[str, Path]) -> tuple[Robot, list, dict[str, 
 
 
 def _home(joint: Joint) -> float:
-    """0 where the limits allow it, else the middle of the range."""
-    if joint.type == "continuous" or joint.lower <= 0.0 <= joint.upper:
+    """0 where it lies HOME_CLEARANCE of the range clear of both stops; else the nearest such point where 0 is in the
+    range (the Panda's wrist, 0 at 0.0175 rad from its stop: 0.37); else the middle of the range."""
+    if joint.type == "continuous":
         return 0.0
-    return round((joint.lower + joint.upper) / 2, 6)
+    if not joint.lower <= 0.0 <= joint.upper:
+        return round((joint.lower + joint.upper) / 2, 6)
+    clear = HOME_CLEARANCE * (joint.upper - joint.lower)
+    return round(min(max(0.0, joint.lower + clear), joint.upper - clear), 6)
+
+
+def _damping(joint: Joint) -> float:
+    """effort / velocity: a drive at full effort moves the joint at its rated velocity (an electric motor's torque
+    falls with speed so); the source's own damping where that is larger."""
+    if joint.effort > 0 and joint.velocity > 0:
+        return float(f"{max(joint.damping, joint.effort / joint.velocity):.4g}")
+    return joint.damping
 
 
 def _kp(joint: Joint) -> float:
@@ -163,6 +176,15 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
             f"{DEFAULT_KP:g} where the source gives no effort",
             {"arm": {"enabled": True, "joints": [j.name for j in arm], "kp": [_kp(j) for j in arm]}},
         )
+    damped = {j.name: {"damping": _damping(j)} for j in arm if _damping(j) > 0}
+    if damped:
+        lines += _block(
+            "the arm joints' damping (N m s/rad, N s/m): effort / velocity of the source's <limit>, so that a\n"
+            "drive at full effort moves its joint at the rated velocity, as a motor's torque falls with speed (the\n"
+            "source's <dynamics damping> where larger). Without it a light joint driven to a far target races into\n"
+            "its stop.",
+            {"joints": damped},
+        )
     lines += _masses(robot)
     lines += _block(
         "hull: one convex hull per mesh (fast); decompose: a CoACD convex decomposition (slow, cached)",
@@ -170,7 +192,9 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
     )
     home = {j.name: _home(j) for j in movable if j.name not in coupled}
     lines += _block(
-        "a pose inside every joint's limits (0, or the middle of a range without 0)", {"keyframes": {"home": home}}
+        f"a pose clear of every joint's stops: 0 where it lies {HOME_CLEARANCE:.0%} of the range inside them, else\n"
+        "the nearest such point, or the middle of a range without 0",
+        {"keyframes": {"home": home}},
     )
     lines += _block(
         "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}

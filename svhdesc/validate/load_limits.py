@@ -7,11 +7,11 @@ gripper), an SVH's distal links without one.
 
 The load is the robot's own: on each fingertip, LOAD_FACTOR times the force its weakest hand drive exerts there
 (the actuator's force limit over its lever from the joint axis to the fingertip's centre of mass at ``home``; a
-slide joint's force as it is), at most LOAD_MAX. A finger no drive pushes (no force limit) gets LOAD_MAX. Twice
-its drive overpowers the servo and presses the finger into its limits; far more than that is not a load its
-drive could ever meet at the fingertip, and a MuJoCo limit, whose stiffness scales with the moving mass, gives
-way to it on a light finger. The run stops at the first non-finite state or MuJoCo warning and names the joint
-that ran away and the contacts at that moment.
+slide joint's force as it is), at most LOAD_MAX; the config's ``validate.tip_load`` (N) where it gives one. A
+finger no drive pushes (no force limit) gets LOAD_MAX. Twice its drive overpowers the servo and presses the finger
+into its limits; far more than that is not a load its drive could ever meet at the fingertip, and a MuJoCo limit,
+whose stiffness scales with the moving mass, gives way to it on a light finger. The run stops at the first
+non-finite state or MuJoCo warning and names the joint that ran away and the contacts at that moment.
 """
 
 from __future__ import annotations
@@ -147,7 +147,11 @@ def check_load_limits(pair: ModelPair, options: Options) -> list[Check]:
     if not limited:
         return [skipped("load_limits", "no limited joints", bound)]
     followers = {c.joint for c in couplings(model) if c.leader in hand.channels}
-    loads = np.array(tip_loads(model, hand.tips, set(hand.channels) | followers))
+    given = pair.configuration.settings.validate.tip_load if pair.configuration is not None else None
+    if given is not None:  # the config's validate.tip_load
+        loads = np.full(len(hand.tips), float(given))
+    else:
+        loads = np.array(tip_loads(model, hand.tips, set(hand.channels) | followers))
     worst, diverged = _loaded_run(model, options.seed, limited, hand.tips, loads)
     allowed = np.where(model.jnt_type[limited] == int(mujoco.mjtJoint.mjJNT_SLIDE), BOUND_SLIDE, BOUND)
     names = [model.joint(j).name for j in limited]

@@ -10,8 +10,11 @@ joint must reach its polynomial's image of the channel's ends. A joint that stop
 with what it moves (a pair whose bodies both move with it included: two followers of one channel), the
 deepest new contact first: the collision geometry that blocks it. A hand channel so blocked fails (the real
 hand moves freely); an arm joint whose range crosses its own body is listed with the pair and passes, since
-no arm reaches every end from every pose. A joint that stops short with nothing in contact fails either way:
-its servo cannot carry the load.
+no arm reaches every end from every pose. An arm joint that stops short with nothing in contact where gravity and
+its friction need all of its drive's force limit (the source's <limit effort>: Talos lifts its arm sideways only so
+far) is listed so too: the source's rating, not the model. Any other stop with nothing in contact fails: its servo
+cannot carry the load (too soft for its friction), or is too slow. A stroke may take MAX_TIME plus its length at
+MIN_SPEED, or at the drive's own speed where slower (drive_speed).
 """
 
 from __future__ import annotations
@@ -30,9 +33,11 @@ from svhdesc.validate.report import Check, fmt, not_run, skipped, table, verdict
 
 TOLERANCE = 0.01  # of the channel's range
 MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles in under 2 s) ...
-MIN_SPEED = 2.0  # ... plus the stroke's length at this speed (rad/s, m/s): a wrist turns 4 pi in one stroke
+MIN_SPEED = 2.0  # ... plus the stroke's length at this speed (rad/s, m/s; a slower drive's own: drive_speed)
 SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once the channels (an arm joint) are this still near the goal ...
 STALLED = 0.2  # s ... or this long short of it
+EFFORT_BOUND = 0.95  # of a drive's force limit: gravity and friction that large stop an arm joint where the source's
+# rating stops it (a note, not a failure)
 
 
 def _subtree(model: Any, body: int) -> set[int]:
@@ -43,12 +48,24 @@ def _subtree(model: Any, body: int) -> set[int]:
     return bodies
 
 
+def drive_speed(model: Any, actuator: int) -> float:
+    """The speed (rad/s, m/s) a stroke may take: MIN_SPEED, or half what the joint's damping lets its drive reach at
+    full effort where that is slower (a motor rated 0.63 rad/s, the Kinova's, as `svhdesc init` damps it; half: gravity
+    and friction take their share of the effort)."""
+    joint = int(model.actuator_trnid[actuator, 0])
+    damping = float(model.dof_damping[model.jnt_dofadr[joint]])
+    if damping <= 0 or not model.actuator_forcelimited[actuator]:
+        return MIN_SPEED
+    effort = float(np.abs(model.actuator_forcerange[actuator]).max() * abs(model.actuator_gear[actuator, 0]))
+    return min(MIN_SPEED, 0.5 * effort / damping)
+
+
 def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, tol: float, dofs: np.ndarray) -> None:
     """Command ``goal`` and step until ``dofs`` are still: near the goal (reached) or, for STALLED s, short of it
     (blocked, or a servo that cannot carry the load); at most the stroke's time."""
     import mujoco
 
-    duration = MAX_TIME + abs(goal - data.qpos[adr]) / MIN_SPEED
+    duration = MAX_TIME + abs(goal - data.qpos[adr]) / drive_speed(model, actuator)
     data.ctrl[actuator] = goal
     stalled_since = None
     for step in range(int(round(duration / model.opt.timestep))):
@@ -80,6 +97,26 @@ def _blocking(model: Any, data: Any, moving: set[int], before: set[tuple[str, st
     pairs = _touching(model, data, moving)
     order = sorted(pairs.items(), key=lambda kv: (kv[0] in before, kv[1]))
     return [f"{a}/{b}" for (a, b), _ in order]
+
+
+def _effort_bound(model: Any, data: Any, joint: int, actuator: int) -> str:
+    """Why a joint at rest short of its goal is where its drive's force limit leaves it: gravity's torque there (with
+    the joint's friction) reaches EFFORT_BOUND of the limit (Talos' arm_left_2_joint, rated 22.32 N m, meets 22.6 N m
+    of its arm's weight at 0.96 rad of 2.88): what the source's rating allows, said as such; empty otherwise (a
+    servo too soft for its friction, or too slow, is the model's fault)."""
+    import mujoco
+
+    dof = int(model.jnt_dofadr[joint])
+    effort = float(np.abs(model.actuator_forcerange[actuator]).max() * abs(model.actuator_gear[actuator, 0]))
+    if not model.actuator_forcelimited[actuator]:
+        effort = np.inf
+    if model.jnt_actfrclimited[joint]:
+        effort = min(effort, float(np.abs(model.jnt_actfrcrange[joint]).max()))
+    load = abs(float(data.qfrc_bias[dof])) + float(model.dof_frictionloss[dof])
+    if not np.isfinite(effort) or load < EFFORT_BOUND * effort:
+        return ""
+    unit = "N" if int(model.jnt_type[joint]) == int(mujoco.mjtJoint.mjJNT_SLIDE) else "N m"
+    return f"gravity and friction there ({load:.3g} {unit}) need all of its drive's {effort:.3g} {unit}"
 
 
 def driven_joints(pair: ModelPair) -> tuple[dict[str, tuple[float, float]], dict[str, tuple[float, float]]]:
@@ -115,8 +152,8 @@ def check_range_of_motion(pair: ModelPair, options: Options) -> list[Check]:
     by_channel = {name: strokes.joint(name, low, high, problems, None) for name, (low, high) in channels.items()}
     driven = {name: strokes.joint(name, low, high, problems, notes) for name, (low, high) in others.items()}
     results = by_channel | driven
-    # An arm joint stopped by its own robot is listed in the notes, not ranked.
-    ranked = [n for n in results if not results[n].get("own_robot")] or list(results)
+    # An arm joint stopped by its own robot, or by its own rating against gravity, is listed in the notes, not ranked.
+    ranked = [n for n in results if not {"own_robot", "effort_bound"} & set(results[n])] or list(results)
     worst = min(ranked, key=lambda n: results[n]["fraction"])
     rows = [
         [
@@ -185,21 +222,8 @@ class _Strokes:
             _stroke(model, data, actuator, goal, adr, tol, self.hand_dofs if notes is None else dofs)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                blockers = _blocking(model, data, moving, before)
-                if blockers:
-                    entry.setdefault("blocked_by", {})[label] = blockers
-                text = f"{self.short(name)} stops at {q:.3f} of {goal:.4g} going {label}"
-                if not low - tol <= q <= high + tol:  # past the end: the limit gave way to the servo
-                    problems.append(
-                        f"{self.short(name)} goes through its limit to {q:.3f} (range {low:.4g} .. {high:.4g})"
-                    )
-                elif not blockers:
-                    problems.append(text + ", nothing in contact: its servo cannot carry the load (or is too slow)")
-                elif notes is not None:
-                    entry["own_robot"] = True
-                    notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
-                else:
-                    problems.append(text + f", blocked by {blockers[0]}")
+                miss = _Miss(name, label, goal, q, (low, high), tol, _blocking(model, data, moving, before))
+                self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))
                 got = float(data.qpos[model.jnt_qposadr[model.joint(e.joint).id]])
@@ -211,3 +235,47 @@ class _Strokes:
         entry["reached"] = [lowest, reached["upper"]]
         entry["fraction"] = (reached["upper"] - lowest) / (high - low) if high > low else 1.0
         return entry
+
+    def judge(
+        self,
+        miss: _Miss,
+        joint: int,
+        actuator: int,
+        entry: dict[str, Any],
+        problems: list[str],
+        notes: list[str] | None,
+    ) -> None:
+        """An end missed: through the limit, stopped where its rating stops it, by a servo too soft, by its own
+        robot (an arm joint: a note) or by a contact (a channel: a problem)."""
+        name, (low, high), blockers = self.short(miss.joint), miss.range, miss.blockers
+        if blockers:
+            entry.setdefault("blocked_by", {})[miss.label] = blockers
+        text = f"{name} stops at {miss.reached:.3f} of {miss.goal:.4g} going {miss.label}"
+        if not low - miss.tol <= miss.reached <= high + miss.tol:  # past the end: the limit gave way to the servo
+            problems.append(f"{name} goes through its limit to {miss.reached:.3f} (range {low:.4g} .. {high:.4g})")
+        elif not blockers and notes is not None and (bound := _effort_bound(self.model, self.data, joint, actuator)):
+            entry.setdefault("effort_bound", {})[miss.label] = bound
+            notes.append(text + f", nothing in contact: {bound}, its rating stops it there (not a failure)")
+        elif not blockers:
+            problems.append(
+                text + ", nothing in contact and its drive below its force limit: its servo is too soft "
+                "(for its friction) or too slow"
+            )
+        elif notes is not None:
+            entry["own_robot"] = True
+            notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
+        else:
+            problems.append(text + f", blocked by {blockers[0]}")
+
+
+@dataclass(frozen=True)
+class _Miss:
+    """A stroke that ended more than ``tol`` from its goal."""
+
+    joint: str
+    label: str  # start, upper, lower
+    goal: float
+    reached: float
+    range: tuple[float, float]
+    tol: float
+    blockers: list[str]  # body pairs in contact, deepest new first

@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -145,6 +146,41 @@ def test_pinocchio_parses_mimic_from_the_plain_urdf() -> None:
     for variant in svhdesc.variants():
         model = pinocchio.buildModelFromUrdf(str(svhdesc.get(variant).urdf_path), mimic=True)
         assert model.nq == len(_leaders(variant))
+
+
+ORDER_URDF = """<robot name="order">
+  <link name="base"/><link name="f"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0"
+  iyz="0"/></inertial></link><link name="l"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0"
+  ixz="0" iyz="0"/></inertial></link>
+  <joint name="a_follower" type="revolute"><parent link="base"/><child link="f"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/><mimic joint="b_leader" multiplier="2" offset="0.1"/></joint>
+  <joint name="b_leader" type="revolute"><parent link="base"/><child link="l"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
+
+
+def test_pinocchio_mimic_model_in_any_joint_order(tmp_path: Path) -> None:
+    """A follower urdfdom visits before its leader (siblings sorted by name: a_follower, b_leader): pinocchio's own
+    mimic=True refuses it; load_pinocchio sorts the leader's branch first and gives the names back. Nothing is
+    written under $XDG_CACHE_HOME. Seeded: leaders_first keeping the names failed here ('not in the kinematic
+    tree')."""
+    pinocchio = pytest.importorskip("pinocchio")
+    folder = tmp_path / "order"
+    folder.mkdir()
+    (folder / "order.urdf").write_text(ORDER_URDF)
+    (folder / "order.xml").write_text("<mujoco/>")  # a built folder's MJCF; pinocchio reads the URDF
+    with pytest.raises(Exception, match="kinematic tree"):
+        pinocchio.buildModelFromUrdf(str(folder / "order.urdf"), mimic=True)
+    cache = tmp_path / "xdg"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("XDG_CACHE_HOME", str(cache))
+        robot = svhdesc.load_pinocchio(str(folder))
+    assert not cache.exists()
+    model = robot.model
+    assert model.nq == 1
+    follower = model.joints[model.getJointId("a_follower")].extract()
+    assert (follower.scaling, follower.offset) == (pytest.approx(2.0), pytest.approx(0.1))
+    assert model.existFrame("a_follower") and model.existFrame("b_leader") and not model.existFrame("0b_leader")
 
 
 # --- pybullet --------------------------------------------------------------------------------------

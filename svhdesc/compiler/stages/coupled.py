@@ -27,7 +27,13 @@ def couple(robot: Robot, assets: Assets, section: Coupled) -> Robot:
     robot = apply_spec(
         robot, section.spec, section.prefix, widen_limits=section.widen_limits, prefix_at=section.prefix_at
     )
-    for problem in mimic_order_problems(robot):
-        # A warning, not an error: the URDF is valid, only pinocchio's mimic=True cannot load it.
-        warnings.warn(f"{problem}: pinocchio cannot build its mimic model (rename a sibling joint)", stacklevel=2)
+    problems = mimic_order_problems(robot)
+    if problems:
+        # One warning, not an error: the URDF is valid, only pinocchio's own parser (mimic=True) cannot read its
+        # mimic joints; svhdesc.load_pinocchio sorts them for it.
+        warnings.warn(
+            f"{problems[0]}{f' (and {len(problems) - 1} more)' if len(problems) > 1 else ''}: pinocchio's "
+            "buildModelFromUrdf(mimic=True) cannot read this URDF's mimic joints; svhdesc.load_pinocchio can",
+            stacklevel=2,
+        )
     return robot

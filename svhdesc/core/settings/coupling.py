@@ -13,7 +13,7 @@ from svhdesc.core.settings.schema import number, numbers, text
 from svhdesc.core.settings.yamlio import load_yaml, where
 from svhdesc.core.source.urdf import SourceMimic
 from svhdesc.errors import SvhdescError
-from svhdesc.ir import Channel, Coupling, Mimic, Robot
+from svhdesc.ir import Channel, Coupling, Joint, Mimic, Robot
 from svhdesc.polynomial import image, linearise, polyval
 
 MAX_ORDER = 4
@@ -67,10 +67,11 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
     """The coupling spec a URDF's ``<mimic>`` tags make when the config gives none: each leader a channel (its
     range, effort and velocity from the leader joint's limits), each mimic joint a linear coupling
     [offset, multiplier]. A mimic of a mimic is composed onto the chain's first leader. None: no mimic tags."""
+    joints = {j.name: j for j in robot.joints}
+    mimics = _movable_mimics(mimics, joints)
     if not mimics:
         return None
     by_joint = {m.joint: m for m in mimics}
-    joints = {j.name: j for j in robot.joints}
     couplings, lines, leaders = [], {}, []
     for mimic in mimics:
         leader, factor, offset, seen = mimic.leader, mimic.multiplier, mimic.offset, {mimic.joint}
@@ -98,6 +99,20 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
         channels.append(Channel(name, name, joint.lower, joint.upper, joint.effort, joint.velocity))
         lines[name] = where_
     return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _movable_mimics(mimics: list[SourceMimic], joints: Mapping[str, Joint]) -> list[SourceMimic]:
+    """The mimic tags of movable joints; a ``<mimic>`` on a fixed joint (Talos' gripper draws its linkage so, for
+    Gazebo's mimic plugin) moves nothing in the model: ignored, one warning line naming all such joints."""
+    fixed = [m for m in mimics if m.joint in joints and not joints[m.joint].movable]
+    if fixed:
+        names = ", ".join(m.joint for m in fixed)
+        warnings.warn(
+            f"{fixed[0].where}: <mimic> on {len(fixed)} fixed joint(s) ignored (a fixed joint cannot follow): {names}",
+            CouplingWarning,
+            stacklevel=3,
+        )
+    return [m for m in mimics if m not in fixed]
 
 
 def _check_document(data: object, path: Path) -> None:

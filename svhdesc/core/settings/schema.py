@@ -384,6 +384,15 @@ class Simulation(Located):
 
 
 @dataclass(frozen=True)
+class Validation(Located):
+    """What `svhdesc validate` assumes of the robot where its own numbers cannot say it."""
+
+    # N on each fingertip in load_limits; None: twice the force the fingertip's weakest hand drive exerts there,
+    # at most 50 N (svhdesc/validate/load_limits.py)
+    tip_load: float | None = _field(None, optional(number(0.0, 1000.0, strict=True)))
+
+
+@dataclass(frozen=True)
 class Scene(Located):
     floor_z: float = _field(0.0, number(-100.0, 100.0))
     pedestal_radius: float = _field(0.0, number(0.0, 10.0))
@@ -462,6 +471,7 @@ class Settings(Located):
     transmissions: Transmissions = _sub(Transmissions)
     simulation: Simulation = _sub(Simulation)
     scene: Scene = _sub(Scene)
+    validate: Validation = _sub(Validation)
     keyframes: dict[str, Any] = _field({}, mapping_of(_keyframe))
     grasps: dict[str, Any] = _field({}, mapping_of(_grasp))
     collision: dict[str, Any] = field(default=None, metadata={"check": free, "required": False, "section": True})

@@ -201,6 +201,11 @@ def _joint_ends(element: etree._Element, where: str, links: list[str]) -> list[s
 
 def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> Joint:
     kind = element.get("type")
+    if kind in {"floating", "planar"}:
+        raise SvhdescError(
+            f"{where}: type {kind!r} is not supported: svhdesc builds fixed-base robots (make the joint 'fixed', or "
+            "drop it and its parent link, to fix the robot to the world)"
+        )
     if kind not in {"revolute", "continuous", "prismatic", "fixed"}:
         raise SvhdescError(f"{where}: unsupported joint type {kind!r}")
     limit = element.find("limit")

@@ -81,20 +81,25 @@ def test_init_then_build_pybullet_panda(tmp_path: Path) -> None:
     assert built.returncode == 0, built.stderr
 
 
-def test_init_home_in_limits(tmp_path: Path) -> None:
-    """A joint whose range excludes 0 gets the middle of its range."""
+def test_init_home_clear_of_the_stops_and_damping_from_the_rating(tmp_path: Path) -> None:
+    """A joint whose range excludes 0 gets the middle of its range; one whose 0 lies near a stop (the Panda's wrist,
+    -0.0175 .. 3.7525) is moved 10 % of its range inside. Each arm joint's damping is effort / velocity (j3: the
+    source's 20, larger). Seeded: `_home` back to 0-where-allowed made j3's home 0.0 and failed here."""
     urdf = tmp_path / "two.urdf"
     urdf.write_text(
-        '<robot name="two"><link name="a"/><link name="b"/><link name="c"/>'
+        '<robot name="two"><link name="a"/><link name="b"/><link name="c"/><link name="d"/>'
         '<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
         '<limit lower="0.5" upper="1.5" effort="10" velocity="1"/></joint>'
         '<joint name="j2" type="continuous"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/>'
-        '<limit effort="5" velocity="1"/></joint></robot>'
+        '<limit effort="5" velocity="2"/></joint>'
+        '<joint name="j3" type="revolute"><parent link="c"/><child link="d"/><axis xyz="0 0 1"/>'
+        '<limit lower="-0.0175" upper="3.7525" effort="12" velocity="2.61"/><dynamics damping="20"/></joint></robot>'
     )
     assert _init(tmp_path, urdf).returncode == 0
     config = yaml.safe_load((tmp_path / "robot.yaml").read_text())
-    assert config["keyframes"]["home"] == {"j1": 1.0, "j2": 0.0}
-    assert config["arm"]["kp"] == [100.0, 50.0]
+    assert config["keyframes"]["home"] == {"j1": 1.0, "j2": 0.0, "j3": pytest.approx(0.3595)}
+    assert config["arm"]["kp"] == [100.0, 50.0, 120.0]
+    assert config["joints"] == {"j1": {"damping": 10.0}, "j2": {"damping": 2.5}, "j3": {"damping": 20.0}}
 
 
 @pytest.mark.parametrize(
@@ -108,6 +113,16 @@ def test_init_home_in_limits(tmp_path: Path) -> None:
             "gone.stl",
         ),
         ("not xml at all <", "robot.urdf"),
+        (
+            "<robot name='r'><link name='w'/><link name='b'/><joint name='base' type='floating'><parent link='w'/>"
+            "<child link='b'/></joint></robot>",
+            "type 'floating' is not supported: svhdesc builds fixed-base robots",
+        ),
+        (
+            "<robot name='r'><link name='w'/><link name='b'/><joint name='base' type='planar'><parent link='w'/>"
+            "<child link='b'/></joint></robot>",
+            "type 'planar' is not supported",
+        ),
     ],
 )
 def test_init_bad_input(tmp_path: Path, text: str, message: str) -> None:

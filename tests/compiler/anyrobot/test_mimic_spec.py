@@ -1,9 +1,11 @@
 """<mimic> tags as the coupling spec (spec_from_mimics). Seeded faults: composing a chain as
 multiplier * offset instead of multiplier * leader_offset + offset fails test_chain; skipping the leader's
-limit check lets a channel of range [0, 0] through (test_leader_without_limits)."""
+limit check lets a channel of range [0, 0] through (test_leader_without_limits); keeping the <mimic> of a fixed joint
+(Talos' gripper) put it into the spec, which the build then refused ('unknown joint ... (coupled joint)')."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import pytest
@@ -44,3 +46,26 @@ def test_leader_without_limits(tmp_path: Path) -> None:
     robot, mimics = _robot(tmp_path, "")
     with pytest.raises(SvhdescError, match="joint drive leads <mimic> joints"):
         spec_from_mimics(robot, mimics, tmp_path / "g.urdf")  # type: ignore[arg-type]
+
+
+def test_mimic_on_a_fixed_joint_is_ignored_with_one_warning(tmp_path: Path) -> None:
+    """Talos draws its gripper's linkage as fixed joints with <mimic> tags (for Gazebo's mimic plugin): they move
+    nothing, so they stay out of the spec, named in one warning line."""
+    text = (
+        '<robot name="g"><link name="a"/><link name="b"/><link name="c"/><link name="d"/>'
+        '<joint name="drive" type="revolute"><parent link="a"/><child link="b"/>'
+        '<limit lower="0" upper="1" effort="3" velocity="2"/></joint>'
+        '<joint name="f1" type="revolute"><parent link="a"/><child link="c"/><limit lower="-9" upper="9" '
+        'effort="1" velocity="1"/><mimic joint="drive"/></joint>'
+        '<joint name="frozen" type="fixed"><parent link="a"/><child link="d"/><mimic joint="drive"/></joint></robot>'
+    )
+    path = tmp_path / "g.urdf"
+    path.write_text(text)
+    root = etree.parse(str(path)).getroot()
+    robot, mimics = read_urdf(root, {}, path), read_mimics(root, path)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        spec = spec_from_mimics(robot, mimics, path)
+    assert spec is not None and [c.joint for c in spec.couplings] == ["f1"]
+    assert len(caught) == 1 and "<mimic> on 1 fixed joint(s) ignored" in str(caught[0].message)
+    assert "frozen" in str(caught[0].message)
