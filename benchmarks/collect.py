@@ -1,12 +1,16 @@
-"""Build benchmarks/README.md from the figures the benchmark scripts wrote to docs/results/*.md.
+"""Build benchmarks/README.md from the figures the benchmark scripts wrote to docs/results/*.md, and fill the
+project README's results blocks.
 
     python benchmarks/collect.py
 
-One section per results file, in name order, each with the command, machine and date its script recorded.
+One section per results file, in name order, each with the command, machine and date its script recorded. A block
+``<!-- results:NAME -->`` ... ``<!-- /results -->`` in the project README gets the first table of
+docs/results/NAME.md and the page's command and date, so a figure shown there is never typed by hand.
 """
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -16,6 +20,8 @@ from results import fields  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "docs" / "results"
 README = REPO / "benchmarks" / "README.md"
+PROJECT_README = REPO / "README.md"
+BLOCK = re.compile(r"(<!-- results:(\w+) -->\n)(.*?)(<!-- /results -->)", re.S)
 
 INTRO = [
     "# Benchmarks",
@@ -44,9 +50,33 @@ def render(results: Path = RESULTS) -> str:
     return "\n".join(lines) + "\n"
 
 
+def first_table(page: str) -> list[str]:
+    """The first markdown table of a results page, its lines as written."""
+    lines = page.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.startswith("|")), None)
+    if start is None:
+        return []
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+    return lines[start:end]
+
+
+def block(name: str, results: Path = RESULTS) -> str:
+    """A README results block's body: the page's first table, then where it came from."""
+    page = (results / f"{name}.md").read_text(encoding="utf-8")
+    meta = fields(page)
+    source = f"(Written by {meta.get('command', '?')} on {meta.get('date', '?')}: [docs/results/{name}.md]"
+    return "\n".join([*first_table(page), "", f"{source}(docs/results/{name}.md).)", ""])
+
+
+def fill_blocks(text: str, results: Path = RESULTS) -> str:
+    """``text`` with every results block refilled from its page."""
+    return BLOCK.sub(lambda m: m.group(1) + block(m.group(2), results) + m.group(4), text)
+
+
 def main() -> None:
     README.write_text(render())
-    print(f"wrote {README.relative_to(REPO)} from {len(list(RESULTS.glob('*.md')))} results files")
+    PROJECT_README.write_text(fill_blocks(PROJECT_README.read_text(encoding="utf-8")), encoding="utf-8")
+    print(f"wrote {README.relative_to(REPO)} from {len(list(RESULTS.glob('*.md')))} results files; refilled README.md")
 
 
 if __name__ == "__main__":

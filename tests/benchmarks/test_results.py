@@ -84,6 +84,15 @@ def test_the_header_check_catches_seeded_faults(tmp_path: Path) -> None:
     assert all(found.values()), f"unnoticed: {[case for case, problems in found.items() if not problems]}"
 
 
+def test_readme_results_blocks_are_what_collect_makes_of_the_pages() -> None:
+    """The project README's tables of figures (the parity table) are the pages' own: a figure typed into the README
+    fails this (seeded: one cell of the parity block edited by hand)."""
+    collect = load("collect")
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    assert "<!-- results:parity -->" in text
+    assert text == collect.fill_blocks(text)
+
+
 def test_benchmarks_readme_is_what_collect_makes_of_the_pages() -> None:
     """Run `python benchmarks/collect.py` after a script wrote a page."""
     assert (BENCHMARKS / "README.md").read_text(encoding="utf-8") == load("collect").render()
