@@ -88,6 +88,9 @@ DECLARES_CONSTRAINTS = {"hand": False, "arm": True}
 # state_publish_rate / action_monitor_rate: SCHUNK's config leaves the JTC defaults (50 / 20 Hz);
 # ur5_controllers.yaml sets 125 (its loop_hz) / 10.
 STATE_PUBLISH_RATE = {"hand": 50.0, "arm": 125.0}
+# How often each simulated controller updates (checks its tolerances, samples its state): the arm at
+# ur_robot_driver's loop_hz 125, the hand on the 100 Hz /clock grid (a multiple of its 50 Hz state).
+CONTROLLER_UPDATE_RATE = {"hand": 100.0, "arm": 125.0}
 ACTION_MONITOR_RATE = {"hand": 20.0, "arm": 10.0}
 # SCHUNK's SVHRosControlHWInterface registers joint velocities but never writes them (always 0), so
 # its controller's stopped-velocity check always passes; ur_robot_driver reports measured velocities.

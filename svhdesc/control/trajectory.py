@@ -128,12 +128,12 @@ def first_occurrences(goal: Goal | Rejection) -> Goal | Rejection:
     return replace(goal, joint_names=[names[i] for i in keep], points=points)
 
 
-def _due(now: float, due: float, timestep: float) -> bool:
+def due(now: float, when: float, timestep: float) -> bool:
     """Due within half a physics step: 0.02 s of steps never lands exactly on 0.02 in floating point."""
-    return now >= due - 0.5 * timestep
+    return now >= when - 0.5 * timestep
 
 
-def _next(due: float, period: float, now: float) -> float:
+def next_tick(due: float, period: float, now: float) -> float:
     """The next instant on the fixed grid ``due + k * period`` (exact rates: not ``now + period``, which
     loses a tick to rounding); after a pause (a stopped controller) the grid restarts at now."""
     following = due + period
@@ -154,7 +154,10 @@ class JointTrajectoryCore:
         running: bool = True,
         reports_velocity: bool = True,
         semantics: Semantics = NOETIC,
+        update_period: float = 0.0,
     ) -> None:
+        """``update_period``: the controller's own loop (0: every ``update`` call is an update); calls between
+        its instants do nothing, so a transport may call it more often than it runs."""
         self.name = name
         self.semantics = semantics
         self.joints = list(joints)
@@ -164,15 +167,18 @@ class JointTrajectoryCore:
         self._sim = sim
         self._allow_partial = allow_partial
         self._active: _Active | None = None
-        self._feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
-        self._state_period = state_period  # JTC's state_publish_rate
+        self.feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
+        self.state_period = state_period  # JTC's state_publish_rate
         self._next_feedback = 0.0
         self._next_state = 0.0
+        self.update_period = update_period
+        self._next_update = 0.0
         # SCHUNK's SVHRosControlHWInterface never fills its joint velocities: its JTC sees 0 rad/s.
         self._reports_velocity = reports_velocity
         self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
         self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
         self._limits = {j: sim.limits(j) for j in self.joints}
+        self._column = {j: k for k, j in enumerate(self.joints)}
         self._since = sim.time  # when the current hold began (query_state before it fails)
 
     @property
@@ -326,22 +332,39 @@ class JointTrajectoryCore:
         actual = self._sim.data.qpos[[self._qpos[j] for j in joints]].copy()
         return Sample(now, list(joints), desired, actual, self._velocities(joints))
 
+    def _subset(self, full: Sample, joints: Sequence[str]) -> Sample:
+        if joints == full.joints:
+            return full
+        k = [self._column[j] for j in joints]
+        desired = State(full.desired.positions[k], full.desired.velocities[k], full.desired.accelerations[k])
+        return Sample(full.stamp, list(joints), desired, full.actual_positions[k], full.actual_velocities[k])
+
     def update(self) -> None:
-        """Publish the state, check the active goal's tolerances, send feedback (every control period)."""
+        """Publish the state, check the active goal's tolerances, send feedback (every control period). The
+        controller's joints are sampled once; the goal's are a subset of that sample."""
         if not self.running:
             return
         now = self._sim.time
-        if _due(now, self._next_state, self._sim.timestep):
-            self.sink.state(self.sample(self.joints, now))
-            self._next_state = _next(self._next_state, self._state_period, now)
+        timestep = self._sim.timestep
+        if self.update_period > 0.0:
+            if not due(now, self._next_update, timestep):
+                return
+            self._next_update = next_tick(self._next_update, self.update_period, now)
         active = self._active
+        state_due = due(now, self._next_state, timestep)
+        if not state_due and active is None:
+            return
+        full = self.sample(self.joints, now)
+        if state_due:
+            self.sink.state(full)
+            self._next_state = next_tick(self._next_state, self.state_period, now)
         if active is None:
             return
-        sample = self.sample(active.joints, now)
-        if _due(now, self._next_feedback, self._sim.timestep):
+        if due(now, self._next_feedback, timestep):
             # JTC's feedback names every joint of the controller, also for a partial goal.
-            self.sink.feedback(active.handle, self.sample(self.joints, now))
-            self._next_feedback = _next(self._next_feedback, self._feedback_period, now)
+            self.sink.feedback(active.handle, full)
+            self._next_feedback = next_tick(self._next_feedback, self.feedback_period, now)
+        sample = self._subset(full, active.joints)
         if now < active.trajectory.end_time:
             self._check_path(active, sample)
         else:

@@ -52,6 +52,9 @@ def trajectory_goal(trajectory: Any, goal: Any = None) -> Goal | Rejection:
         return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
 
 
+RESULT_QUEUE = 2000  # results queued per connection before rospy drops the oldest (actionlib's own: 50)
+
+
 class TrajectoryController:
     def __init__(
         self,
@@ -67,6 +70,7 @@ class TrajectoryController:
         state_period: float = 0.02,
         running: bool = True,
         reports_velocity: bool = True,
+        update_period: float = 0.0,
     ) -> None:
         """``send`` hands (callable, message) pairs to a publishing thread (default: call at once)."""
         import actionlib
@@ -80,7 +84,17 @@ class TrajectoryController:
         self._queue = queue
         self._send = send or (lambda batch: [target(message) for target, message in batch])
         self.core = JointTrajectoryCore(
-            name, joints, sim, self, allow_partial, defaults, feedback_period, state_period, running, reports_velocity
+            name,
+            joints,
+            sim,
+            self,
+            allow_partial,
+            defaults,
+            feedback_period,
+            state_period,
+            running,
+            reports_velocity,
+            update_period,
         )
         self._server = actionlib.ActionServer(
             f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
@@ -93,10 +107,15 @@ class TrajectoryController:
             f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=1
         )
         self._state = rospy.Publisher(f"{name}/state", msgs.JointTrajectoryControllerState, queue_size=1)
+        self._state_message = msgs.JointTrajectoryControllerState()
+        self._feedback_message = msgs.FollowJointTrajectoryFeedback()
         self._query = rospy.Service(f"{name}/query_state", msgs.QueryTrajectoryState, self._on_query)
 
     def start(self) -> None:
         self._server.start()
+        # A burst of goals is answered faster than actionlib's result queue of 50 is sent: rospy would drop
+        # the oldest results, and their clients would wait for ever.
+        self._server.result_pub.impl.set_queue_size(RESULT_QUEUE)
 
     @property
     def running(self) -> bool:
@@ -163,32 +182,34 @@ class TrajectoryController:
         self._rospy.logwarn(text)
 
     def state(self, sample: Sample) -> None:
-        message = self._msgs.JointTrajectoryControllerState()
+        self._send([(self._publish_state, sample)])  # the message is built on the publishing thread
+
+    def _publish_state(self, sample: Sample) -> None:
+        # One message, refilled: publishing serialises it before it returns (so does actionlib's feedback).
+        message = self._state_message
         message.header.stamp = self._rospy.Time.from_sec(sample.stamp)
         message.joint_names = list(sample.joints)
         self._fill(message, sample)
-        self._send([(self._state, message)])
+        self._state.publish(message)
 
     def feedback(self, handle: Any, sample: Sample) -> None:
-        feedback = self._msgs.FollowJointTrajectoryFeedback()
+        self._send([(lambda s: handle.publish_feedback(self._feedback(s)), sample)])
+
+    def _feedback(self, sample: Sample) -> Any:
+        feedback = self._feedback_message
         feedback.header.stamp = self._rospy.Time.from_sec(sample.stamp)
         feedback.joint_names = list(sample.joints)
         self._fill(feedback, sample)
-        self._send([(handle.publish_feedback, feedback)])
+        return feedback
 
     @staticmethod
     def _fill(message: Any, sample: Sample) -> None:
-        from trajectory_msgs.msg import JointTrajectoryPoint
-
-        desired = sample.desired
-        message.desired = JointTrajectoryPoint(
-            positions=desired.positions.tolist(),
-            velocities=desired.velocities.tolist(),
-            accelerations=desired.accelerations.tolist(),
-        )
-        message.actual = JointTrajectoryPoint(
-            positions=sample.actual_positions.tolist(), velocities=sample.actual_velocities.tolist()
-        )
-        message.error = JointTrajectoryPoint(
-            positions=sample.position_error.tolist(), velocities=sample.velocity_error.tolist()
-        )
+        """desired, actual and error of a state or feedback message (fields not set stay empty)."""
+        desired, actual, error = message.desired, message.actual, message.error
+        desired.positions = sample.desired.positions.tolist()
+        desired.velocities = sample.desired.velocities.tolist()
+        desired.accelerations = sample.desired.accelerations.tolist()
+        actual.positions = sample.actual_positions.tolist()
+        actual.velocities = sample.actual_velocities.tolist()
+        error.positions = sample.position_error.tolist()
+        error.velocities = sample.velocity_error.tolist()

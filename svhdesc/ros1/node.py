@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 import warnings
 from collections import deque
 from collections.abc import Sequence
@@ -32,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 from lxml import etree
 
 from svhdesc.control.goals import Tolerances
+from svhdesc.control.trajectory import due, next_tick
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
     ACTION_MONITOR_RATE,
@@ -40,6 +42,7 @@ from svhdesc.model import (
     ARM_VELOCITY_CONTROLLER,
     CONSTRAINTS,
     CONTROLLER_TYPES,
+    CONTROLLER_UPDATE_RATE,
     JOINT_STATE_CONTROLLER,
     NODE_NAME,
     REPORTS_VELOCITY,
@@ -50,6 +53,10 @@ from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
 from svhdesc.ros1.system import import_ros
 from svhdesc.sim import Simulation
+
+# Queued callbacks (goals, cancels, commands, queries) worked per control update: a burst of 1000 goals
+# then takes a few hundred updates, while the physics, /clock and /joint_states go on.
+WORK_PER_UPDATE = 8
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
@@ -136,6 +143,9 @@ class Outbox:
                     (target.publish if hasattr(target, "publish") else target)(message)
                 except Exception:  # noqa: BLE001 - at shutdown rospy refuses; the thread must live on
                     pass
+                # Hand the GIL back after each message: the simulation thread, back from a chunk of physics,
+                # would otherwise wait up to the 5 ms switch interval for it.
+                time.sleep(0)
 
     def close(self) -> None:
         with self._ready:
@@ -179,6 +189,7 @@ class SimNode:
         self.sim = sim
         self.queue: deque = deque()
         self.outbox = Outbox()
+        self._batch: list[tuple[Any, Any]] = []
         self._period = 1.0 / rate
         self._clock_period = 1.0 / clock_rate
         urdf = get(sim.variant).urdf_path
@@ -196,6 +207,8 @@ class SimNode:
         self._velocity_controllers: list[VelocityGroupController] = []
         self.manager = ControllerManager(self._load_controllers(rospy, msgs), self.queue)
         self._pose_topics = self._connect(rospy, connector, Float64)
+        self._pose_messages = [Float64() for _ in self._pose_topics]
+        self._joint_state_message, self._clock_message = JointState(), Clock()
         for controller in self.controllers:
             controller.start()
 
@@ -217,11 +230,12 @@ class SimNode:
                 partial,
                 _tolerances(rospy, name, joints, kind),
                 self.queue,
-                self.outbox.send,
+                self._collect,
                 feedback_period=1.0 / ACTION_MONITOR_RATE[kind],
                 state_period=1.0 / float(rospy.get_param(f"{name}/state_publish_rate", STATE_PUBLISH_RATE[kind])),
                 running=running,
                 reports_velocity=REPORTS_VELOCITY[kind],
+                update_period=1.0 / CONTROLLER_UPDATE_RATE[kind],
             )
             self.controllers.append(controller)
             loaded.append(Loaded(name, kind_name, POSITION_INTERFACE, list(joints), running, controller))
@@ -270,74 +284,117 @@ class SimNode:
         except (SvhdescError, TypeError, ValueError) as exc:
             self._rospy.logwarn(f"connector: initial pose for {joint} ignored: {exc}")
 
-    def _drain(self) -> None:
-        while self.queue:
+    def _drain(self, limit: int | None = None) -> None:
+        """Work the callbacks queued, at most ``limit`` items (a burst of goals is then spread over many
+        control updates, and the physics, /clock and /joint_states go on between them)."""
+        done = 0
+        while self.queue and (limit is None or done < limit):
             handler, argument = self.queue.popleft()
+            done += 1
             try:
                 handler(argument)
             except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
                 self._rospy.logerr(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
 
+    def _collect(self, batch: list[tuple[Any, Any]]) -> None:
+        """What the controllers publish in one control update, sent to the Outbox as one batch."""
+        self._batch.extend(batch)
+
     def publish_state(self) -> None:
-        rospy, sim = self._rospy, self.sim
-        stamp = rospy.Time.from_sec(sim.time)
-        state = sim.joint_state()
-        message = self._JointState(
-            name=list(state.names),
-            position=state.positions.tolist(),
-            velocity=state.velocities.tolist(),
-            effort=state.efforts.tolist(),
+        """/joint_states, the connector's poses, tracked bodies and fingertip wrenches: read here, built
+        into messages and published on the Outbox's thread."""
+        sim = self.sim
+        reading = (
+            sim.time,
+            sim.joint_state(),
+            [sim.body_pose(body) for body, _ in self._tracked],
+            [sim.contact_wrench(body) for body, _, _ in self._wrenches],
         )
+        self._batch.append((self._publish_reading, reading))
+
+    def _publish_reading(self, reading: tuple[float, Any, list[Any], list[Any]]) -> None:
+        """On the Outbox's thread. Messages are refilled, not rebuilt: a synchronous publish has serialised a
+        message when it returns."""
+        seconds, state, poses, wrenches = reading
+        stamp = self._rospy.Time.from_sec(seconds)
+        message = self._joint_state_message
+        message.name = list(state.names)
+        message.position = state.positions.tolist()
+        message.velocity = state.velocities.tolist()
+        message.effort = state.efforts.tolist()
         message.header.stamp = stamp
-        batch: list[tuple[Any, Any]] = [(self._joint_states, message)]
-        positions = dict(zip(state.names, state.positions.tolist()))
-        for joint, publisher in self._pose_topics:
-            batch.append((publisher, self._Float64(positions[joint])))
-        for body, publisher in self._tracked:
-            position, quaternion = sim.body_pose(body)
+        self._joint_states.publish(message)
+        positions = dict(zip(state.names, message.position))
+        for (joint, publisher), value in zip(self._pose_topics, self._pose_messages):
+            value.data = positions[joint]
+            publisher.publish(value)
+        for (_, publisher), (position, quaternion) in zip(self._tracked, poses):
             pose = self._PoseStamped()
             pose.header.stamp, pose.header.frame_id = stamp, self._frame
             pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position.tolist()
             o = pose.pose.orientation
             o.w, o.x, o.y, o.z = quaternion.tolist()
-            batch.append((publisher, pose))
-        for body, frame, publisher in self._wrenches:
-            force, torque = sim.contact_wrench(body)
+            publisher.publish(pose)
+        for (_, frame, publisher), (force, torque) in zip(self._wrenches, wrenches):
             wrench = self._WrenchStamped()
             wrench.header.stamp, wrench.header.frame_id = stamp, frame
             wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = force.tolist()
             wrench.wrench.torque.x, wrench.wrench.torque.y, wrench.wrench.torque.z = torque.tolist()
-            batch.append((publisher, wrench))
-        self.outbox.send(batch)
+            publisher.publish(wrench)
+
+    def _publish_clock(self, seconds: float) -> None:
+        self._clock_message.clock = self._rospy.Time.from_sec(seconds)
+        self._clock.publish(self._clock_message)
+
+    def _periods(self) -> list[float]:
+        """Every period something is due on: /clock, /joint_states, each controller's updates and state (the
+        feedback comes at its rate on its controller's update grid)."""
+        periods = [self._clock_period, self._period]
+        for controller in self.controllers:
+            periods += [controller.core.update_period, controller.core.state_period]
+        return periods
 
     def spin(self, duration: float = math.inf, realtime: bool = True, viewer: Any = None) -> float:
-        """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor."""
+        """Run until shutdown (or ``duration`` simulated seconds); returns the real-time factor.
+
+        The runtime calls back at every instant something is due (the union of the periods: /clock 100 Hz,
+        /joint_states, the controllers' state and feedback); there the controllers update, messages go to
+        the Outbox and a bounded slice of the queued work is done. Between two instants the physics runs
+        in one chunk with no Python per step."""
         rospy, sim = self._rospy, self.sim
-        next_state = sim.time
-        self._clock.publish(self._Clock(clock=rospy.Time.from_sec(sim.time)))
+        timestep = sim.timestep
+        next_state = next_clock = sim.time
         self._drain()
+        periods = self._periods()
+        sim.control_steps = max(1, round(max(periods) / timestep))  # updates come at the callbacks
 
         def between_steps(sim: Any) -> bool:
-            nonlocal next_state
-            self.outbox.send([(self._clock, self._Clock(clock=rospy.Time.from_sec(sim.time)))])
+            nonlocal next_state, next_clock
+            now = sim.time
+            if due(now, next_clock, timestep):
+                self._batch.append((self._publish_clock, now))
+                next_clock = next_tick(next_clock, self._clock_period, now)
             for controller in self.controllers:
                 controller.update()
             for velocity in self._velocity_controllers:
                 velocity.update()
-            if sim.time >= next_state - 0.5 * sim.timestep:
+            if due(now, next_state, timestep):
                 self.publish_state()
-                next_state += self._period
+                next_state = next_tick(next_state, self._period, now)
+            if self._batch:
+                batch, self._batch = self._batch, []
+                self.outbox.send(batch)
             if viewer is not None:
                 viewer.sync()
                 if not viewer.running:
                     return False
             if rospy.is_shutdown():
                 return False
-            self._drain()  # commands that arrived meanwhile act on the next step
+            self._drain(WORK_PER_UPDATE)  # commands that arrived meanwhile act on the next chunk
             return True
 
-        # The runtime's own loop steps one clock period at a time and keeps to the wall clock when asked.
-        return sim.run(duration, realtime=realtime, every=self._clock_period, callback=between_steps)
+        between_steps(sim)  # t0: the first /clock and state
+        return sim.run(duration, realtime=realtime, every=periods, callback=between_steps)
 
 
 def default_connector(variant: str) -> Path:

@@ -25,6 +25,17 @@ from svhdesc.model import urdf_velocity_limits
 from svhdesc.sim.robot import RobotInfo, describe
 from svhdesc.sim.trajectory import Point, State, Trajectory, validate_points
 
+# s: how often ``step``/``advance`` update the controllers (``run`` updates them at its callbacks too)
+CONTROL_PERIOD = 0.002
+
+
+def _grid(every: float | Sequence[float], timestep: float) -> list[int]:
+    """The callback periods in whole physics steps (at least one)."""
+    periods = [every] if isinstance(every, (int, float)) else list(every)
+    if not periods or not all(math.isfinite(p) and p > 0 for p in periods):
+        raise SvhdescError(f"callback periods must be positive: {every}")
+    return sorted({max(1, round(p / timestep)) for p in periods})
+
 
 @dataclass(frozen=True)
 class JointState:
@@ -100,6 +111,9 @@ class Simulation:
         self._setpoint = np.zeros(len(ramped))  # what the firmware's ramp has reached
         self._active: list[_Active] = []
         self._step_hooks: list[Callable[[], None]] = []
+        self.control_steps = max(1, round(CONTROL_PERIOD / self.timestep))  # physics steps per controller update
+        warn = mujoco.mjtWarning
+        self._bad_kinds = [int(warn.mjWARN_BADQPOS), int(warn.mjWARN_BADQVEL), int(warn.mjWARN_BADQACC)]
         self.reset(keyframe)
 
     # -- setup -------------------------------------------------------------------------------
@@ -262,34 +276,54 @@ class Simulation:
 
     # -- stepping ----------------------------------------------------------------------------
     def add_step_hook(self, hook: Callable[[], None]) -> None:
-        """Called after every physics step (for monitors that must see each step)."""
+        """Called after every physics step (for monitors that must see each step); while one is set,
+        stepping goes one physics step at a time."""
         self._step_hooks.append(hook)
 
     def step(self, count: int = 1) -> None:
-        mujoco = self._mj
-        for _ in range(count):
-            now = self.time + self.timestep
-            finished = []
-            for active in self._active:
-                state = active.trajectory.sample(now)
-                self.data.ctrl[active.actuators] = state.positions[active.columns]
-                if now >= active.trajectory.end_time:
-                    finished.append(active)
-            for active in finished:
-                self._active.remove(active)
-            commanded = self.data.ctrl[self._ramped].copy()
-            self._setpoint = np.clip(commanded, self._setpoint - self._ramp_step, self._setpoint + self._ramp_step)
-            self.data.ctrl[self._ramped] = self._setpoint  # the servos see the ramp, the rest of the API the command
-            mujoco.mj_step(self.model, self.data)
-            self.data.ctrl[self._ramped] = commanded
-            for hook in self._step_hooks:
-                hook()
+        """``count`` physics steps; the controller updates every ``control_period`` (see ``_update``)."""
+        chunk = 1 if self._step_hooks else self.control_steps
+        while count > 0:
+            self._chunk(min(chunk, count))
+            count -= chunk
         self._check_diverged()
+
+    def _chunk(self, steps: int) -> None:
+        """One controller update, then ``steps`` physics steps with no Python between them: the servos are
+        MJCF actuators holding the targets (as the drivers' controllers hold theirs between updates)."""
+        commanded = self._update(steps)
+        self._mj.mj_step(self.model, self.data, steps)
+        self.data.ctrl[self._ramped] = commanded
+        for hook in self._step_hooks:
+            hook()
+
+    def _update(self, steps: int) -> np.ndarray:
+        """The controller update for the next ``steps`` physics steps: each trajectory sampled at the first
+        step's time becomes its servos' target; the hand's firmware ramp moves its setpoint toward the command
+        by at most ``steps`` steps' worth of its velocity limit. Returns the hand's commands (the servos see
+        the ramp, the rest of the API the command)."""
+        now = self.time + self.timestep
+        finished = []
+        for active in self._active:
+            state = active.trajectory.sample(now)
+            self.data.ctrl[active.actuators] = state.positions[active.columns]
+            if now >= active.trajectory.end_time:
+                finished.append(active)
+        for active in finished:
+            self._active.remove(active)
+        commanded = self.data.ctrl[self._ramped]
+        if not np.array_equal(commanded, self._setpoint):  # else the setpoint has reached the command
+            reach = self._ramp_step * steps
+            self._setpoint = np.minimum(np.maximum(commanded, self._setpoint - reach), self._setpoint + reach)
+            self.data.ctrl[self._ramped] = self._setpoint
+        return commanded
 
     def _check_diverged(self) -> None:
         """Stop at once, naming the joint, when MuJoCo found a bad state (it then resets it to a finite one, so the
         state alone can look fine) or the state went non-finite."""
         mj, warning = self._mj, self.data.warning
+        if not warning.number[self._bad_kinds].any() and math.isfinite(self.data.qpos.sum() + self.data.qvel.sum()):
+            return  # the common case, cheaply: it runs after every chunk
         kinds = (mj.mjtWarning.mjWARN_BADQPOS, mj.mjtWarning.mjWARN_BADQVEL, mj.mjtWarning.mjWARN_BADQACC)
         bad = [kind for kind in kinds if warning[kind].number]
         if not bad and np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all():
@@ -309,19 +343,23 @@ class Simulation:
         self,
         duration: float,
         realtime: bool = True,
-        every: float = 0.02,
+        every: float | Sequence[float] = 0.02,
         callback: Callable[[Simulation], bool | None] | None = None,
     ) -> float:
         """Step for ``duration`` simulated seconds (math.inf: until ``callback`` returns False).
 
-        ``callback`` runs every ``every`` simulated seconds. Returns the real-time factor."""
-        chunk = max(1, round(every / self.timestep))
+        ``callback`` runs at every multiple of each period in ``every`` (simulated seconds since t = 0, so
+        rates are exact however the run began); between two such instants the physics runs in one chunk
+        (one controller update, then MuJoCo's own loop). Returns the real-time factor."""
+        grid = _grid(every, self.timestep)
         begin_wall, begin_sim = wallclock.perf_counter(), self.time
-        while self.time - begin_sim < duration - 0.5 * self.timestep:
-            if math.isfinite(duration):
-                self.step(min(chunk, round((duration - (self.time - begin_sim)) / self.timestep)))
-            else:
-                self.step(chunk)
+        end = math.inf if not math.isfinite(duration) else round((begin_sim + duration) / self.timestep)
+        while True:
+            index = round(self.time / self.timestep)
+            if index >= end:
+                break
+            following = min(min((index // p + 1) * p for p in grid), end)
+            self.step(int(following - index))
             if callback is not None and callback(self) is False:
                 break
             if realtime:

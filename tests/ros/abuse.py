@@ -2,7 +2,7 @@
 process): abuses the node named in the environment's master, then checks it still serves. Exits 0 when
 every assertion held; prints what it measured as one JSON line.
 
-usage: abuse.py goals|flood|killed|valid
+usage: abuse.py goals|burst|flood|killed|valid
 """
 
 from __future__ import annotations
@@ -157,6 +157,53 @@ def bad_goals(node: dict[str, Any]) -> None:
     _succeeds(node, 0.6)
 
 
+def burst(node: dict[str, Any]) -> None:
+    """1000 goals at once, as fast as one publisher sends them. The node must not freeze while it answers
+    them: /clock keeps coming between the answers. Measured by order of arrival, not by time: the longest
+    run of answers with no /clock message between them."""
+    from actionlib_msgs.msg import GoalID
+    from rosgraph_msgs.msg import Clock
+
+    rospy, msgs = node["rospy"], node["msgs"]
+    rng = random.Random(29)
+    arrivals: list[str] = []  # "c" for a /clock message, "r" for one of the burst's results, in arrival order
+    sent = {f"burst-{i}" for i in range(1000)}
+    clock = rospy.Subscriber("/clock", Clock, lambda _: arrivals.append("c"), queue_size=100)
+    results = rospy.Subscriber(
+        f"/{HAND}/follow_joint_trajectory/result",
+        msgs.FollowJointTrajectoryActionResult,
+        lambda r: arrivals.append("r") if r.status.goal_id.id in sent else None,
+        queue_size=2000,
+    )
+    publisher = rospy.Publisher(
+        f"/{HAND}/follow_joint_trajectory/goal", msgs.FollowJointTrajectoryActionGoal, queue_size=None
+    )
+    wait_for(lambda: publisher.get_num_connections() > 0, 20, "the goal subscriber")
+    time.sleep(0.5)  # the result publisher's connection to us
+    try:
+        for i in range(1000):
+            message = msgs.FollowJointTrajectoryActionGoal()
+            message.goal_id = GoalID(id=f"burst-{i}", stamp=rospy.Time.now())
+            message.goal.trajectory = _random_trajectory(rng, rospy)
+            publisher.publish(message)  # synchronous (no queue_size): every goal reaches the node
+        try:
+            # Nearly all (the paced check asks for 990): what a burst may lose to rospy's queues is not this check's.
+            wait_for(lambda: arrivals.count("r") >= 950, 120, "answers to the burst")
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}: {arrivals.count('r')} answers, {arrivals.count('c')} /clock") from None
+    finally:
+        for subscriber in (clock, results, publisher):
+            subscriber.unregister()
+    window = "".join(arrivals)
+    window = window[window.index("r") : window.rindex("r") + 1]
+    longest = max(len(run) for run in window.split("c"))
+    node["report"].update(answered=window.count("r"), clocks=window.count("c"), longest_run=longest)
+    # Frozen (the whole burst worked in one go): one run of about 1000 answers. Working a bounded slice per
+    # control update interleaves them with /clock.
+    assert longest < 500, node["report"]
+    _succeeds(node, 0.5)
+
+
 def flood(node: dict[str, Any]) -> None:
     from trajectory_msgs.msg import JointTrajectory
 
@@ -229,7 +276,9 @@ def main(check: str) -> None:
     wait_for(lambda: states, 60, "/joint_states")
     node: dict[str, Any] = {"rospy": rospy, "msgs": control_msgs(), "states": states, "report": {}}
     node["client"] = _client(node)
-    {"goals": bad_goals, "flood": flood, "killed": killed_client, "valid": lambda n: _succeeds(n, 0.1)}[check](node)
+    {"goals": bad_goals, "burst": burst, "flood": flood, "killed": killed_client, "valid": lambda n: _succeeds(n, 0.1)}[
+        check
+    ](node)
     print(json.dumps(node["report"]), flush=True)
     rospy.signal_shutdown("done")
 

@@ -539,6 +539,16 @@ def test_controller_state_topic_and_query_state(ros: dict[str, Any]) -> None:
         stamps = [m.header.stamp.to_sec() for m in state.all[-5:]]
         # Exactly 50 Hz of simulated time (the rate rule itself: tests/control/test_trajectory_core.py).
         assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=1e-6)
+        # The arm's at ur_robot_driver's 125 Hz: the node steps to every 8 ms instant (seeded fault: the arm's
+        # controller updated only on the 10 ms /clock grid, as before, gave 0.01).
+        arm_state = Latest(rospy, f"/{ARM}/state", msgs.JointTrajectoryControllerState, keep=True)
+        try:
+            arm_state.fresh(20)
+            wait_for(lambda: len(arm_state.all) >= 6, 20, "a few arm states")
+            arm_stamps = [m.header.stamp.to_sec() for m in arm_state.all[-5:]]
+            assert np.median(np.diff(arm_stamps)) == pytest.approx(0.008, abs=1e-6)
+        finally:
+            arm_state.subscriber.unregister()
         # Compared at rest: a finger still on its way from an earlier goal moves between the two messages.
         positions = _at_rest(ros, list(first.joint_names))
         latest = state.fresh()
