@@ -77,6 +77,27 @@ def stop(process: subprocess.Popen) -> None:
             process.wait()
 
 
+@contextmanager
+def shut_down_if_it_dies(process: subprocess.Popen, rospy: Any) -> Iterator[None]:
+    """With sim time, a dead node stops the clock, and actionlib's sim-time timeouts never end: when ``process``
+    exits, rospy is shut down, which ends every wait (they return False, the test fails instead of hanging)."""
+    done = threading.Event()
+
+    def watch() -> None:
+        while not done.wait(0.5):
+            if process.poll() is not None:
+                rospy.signal_shutdown(f"the node under test exited ({process.returncode})")
+                return
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
+
+
 def svhdesc_executable() -> str:
     return str(Path(sys.executable).with_name("svhdesc"))
 

@@ -94,7 +94,7 @@ class TrajectoryController:
             state_period,
             running,
             reports_velocity,
-            update_period,
+            update_period=update_period,  # by name: the core's later parameters (semantics) come before it
         )
         self._server = actionlib.ActionServer(
             f"{name}/{ACTION}",  # relative: a node started in a namespace serves there

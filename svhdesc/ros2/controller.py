@@ -122,7 +122,7 @@ class TrajectoryController:
             state_period,
             True,
             reports_velocity,
-            JAZZY,
+            semantics=JAZZY,
         )
         self._state_class = JointTrajectoryControllerState
         self._state = node.create_publisher(JointTrajectoryControllerState, f"{name}/controller_state", 10)

@@ -21,7 +21,7 @@ import yaml
 
 import svhdesc
 from svhdesc.ros1.system import ros_available
-from tests.rosmaster import master, simple_action_client, stop, svhdesc_executable, wait_for
+from tests.rosmaster import master, shut_down_if_it_dies, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
 
 pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-rospy is not installed")
@@ -84,7 +84,8 @@ def ros(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
 
             states = Latest(rospy, "/joint_states", JointState)
             wait_for(lambda: states.message, 60, "/joint_states from the launched node")
-            yield {"rospy": rospy, "msgs": control_msgs(), "states": states, "home": home, "launch": launch}
+            with shut_down_if_it_dies(launch, rospy):
+                yield {"rospy": rospy, "msgs": control_msgs(), "states": states, "home": home, "launch": launch}
         finally:
             stop(launch)
 
