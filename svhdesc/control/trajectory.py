@@ -426,3 +426,22 @@ class JointTrajectoryCore:
         else:
             self.sink.warn(f"{self.name}: goal aborted ({int(code)}): {text}")
             self.sink.finished(active.handle, Result(Status.ABORTED, code, text))
+
+
+class ForwardsToCore:
+    """The controller-manager calls every transport's controller forwards to its transport-free core."""
+
+    core: JointTrajectoryCore
+
+    @property
+    def running(self) -> bool:
+        return self.core.running
+
+    def starting(self) -> None:
+        self.core.starting()
+
+    def stopping(self) -> None:
+        self.core.stopping()
+
+    def update(self) -> None:
+        self.core.update()

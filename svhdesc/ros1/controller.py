@@ -11,7 +11,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
-from svhdesc.control.trajectory import Goal, JointTrajectoryCore, Result, Sample, Status
+from svhdesc.control.trajectory import ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.control.work import on_sim_thread
 from svhdesc.model import ACTION
 from svhdesc.sim import Point, Simulation
@@ -55,7 +55,7 @@ def trajectory_goal(trajectory: Any, goal: Any = None) -> Goal | Rejection:
 RESULT_QUEUE = 2000  # results queued per connection before rospy drops the oldest (actionlib's own: 50)
 
 
-class TrajectoryController:
+class TrajectoryController(ForwardsToCore):
     def __init__(
         self,
         name: str,
@@ -116,19 +116,6 @@ class TrajectoryController:
         # A burst of goals is answered faster than actionlib's result queue of 50 is sent: rospy would drop
         # the oldest results, and their clients would wait for ever.
         self._server.result_pub.impl.set_queue_size(RESULT_QUEUE)
-
-    @property
-    def running(self) -> bool:
-        return self.core.running
-
-    def starting(self) -> None:
-        self.core.starting()
-
-    def stopping(self) -> None:
-        self.core.stopping()
-
-    def update(self) -> None:
-        self.core.update()
 
     def _on_query(self, request: Any) -> Any:
         """QueryTrajectoryState: answered by the simulation thread, as all work on the simulation."""

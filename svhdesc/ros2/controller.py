@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
-from svhdesc.control.trajectory import JAZZY, Goal, JointTrajectoryCore, Result, Sample, Status
+from svhdesc.control.trajectory import JAZZY, ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.model import ACTION
 from svhdesc.sim import Point, Simulation
 
@@ -74,7 +74,7 @@ class _Goal:
         self.future = future
 
 
-class TrajectoryController:
+class TrajectoryController(ForwardsToCore):
     def __init__(
         self,
         node: Any,
@@ -176,19 +176,6 @@ class TrajectoryController:
         active = self.core.active_handle
         if self.core.cancel(lambda handle: handle.goal_handle is goal_handle):
             self._resolve(active, Status.CANCELED, ErrorCode.SUCCESSFUL, "")
-
-    @property
-    def running(self) -> bool:
-        return self.core.running
-
-    def starting(self) -> None:
-        self.core.starting()
-
-    def stopping(self) -> None:
-        self.core.stopping()
-
-    def update(self) -> None:
-        self.core.update()
 
     def _renamed(self, text: str) -> str:
         """The core's texts name the simulation's joints: say the ROS 2 driver's names."""
