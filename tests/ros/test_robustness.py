@@ -28,7 +28,10 @@ pytestmark = [
 
 VARIANT = "svh_right"
 ABUSE = TESTS / "ros" / "abuse.py"
-MEMORY_LIMIT_KB = 10 * 1024
+# 10 MB before the result queue grew from actionlib's 50 to 2000 (RESULT_QUEUE: a burst's answers are kept, not
+# dropped); a 1000-goal burst now leaves up to its results in rospy's queue, and the node was seen at 10.1 MB.
+# A leak still shows: the idle leak this guards against grew ~2.3 MB a minute, far more over the abuse above.
+MEMORY_LIMIT_KB = 16 * 1024
 
 
 def rss_kb(pid: int) -> int:
@@ -92,7 +95,7 @@ def test_a_client_killed_mid_goal(node: dict[str, Any]) -> None:
     abuse(node, "killed")
 
 
-def test_memory_grew_less_than_10_mb(node: dict[str, Any]) -> None:
+def test_memory_grew_less_than_16_mb(node: dict[str, Any]) -> None:
     """Runs last (file order): everything above has happened to the node by now."""
     abuse(node, "valid")
     grown = rss_kb(node["process"].pid) - node["rss_start"]
