@@ -10,9 +10,10 @@ update) -> INVALID_GOAL. The controller never returns OLD_HEADER_TIMESTAMP.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import Any
 
 from svhdesc.sim.trajectory import Point, validate_points
 
@@ -41,6 +42,20 @@ GOAL_TOLERANCE_VIOLATED = ErrorCode.GOAL_TOLERANCE_VIOLATED
 class Rejection:
     code: ErrorCode
     reason: str
+
+
+def points_of(messages: Iterable[Any], seconds: Callable[[Any], float]) -> list[Point]:
+    """JointTrajectoryPoint messages (ROS 1's and ROS 2's have the same fields) as the core's Points; ``seconds``
+    reads the transport's Duration."""
+    return [
+        Point(
+            seconds(point.time_from_start),
+            tuple(point.positions),
+            tuple(point.velocities) or None,
+            tuple(point.accelerations) or None,
+        )
+        for point in messages
+    ]
 
 
 def check_goal(

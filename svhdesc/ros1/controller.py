@@ -10,37 +10,27 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
+from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.trajectory import ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.control.work import on_sim_thread
 from svhdesc.model import ACTION
-from svhdesc.sim import Point, Simulation
+from svhdesc.sim import Simulation
 
 
 def _duration(value: Any) -> float:
     return float(value.secs) + 1e-9 * float(value.nsecs)
 
 
-def _points(trajectory_msg: Any) -> list[Point]:
-    return [
-        Point(
-            _duration(point.time_from_start),
-            tuple(point.positions),
-            tuple(point.velocities) or None,
-            tuple(point.accelerations) or None,
-        )
-        for point in trajectory_msg.points
-    ]
-
-
 def trajectory_goal(trajectory: Any, goal: Any = None) -> Goal | Rejection:
     """A JointTrajectory (and its FollowJointTrajectoryGoal's tolerances) as the core's Goal."""
     try:
         if goal is None:
-            return Goal(list(trajectory.joint_names), _points(trajectory), trajectory.header.stamp.to_sec())
+            return Goal(
+                list(trajectory.joint_names), points_of(trajectory.points, _duration), trajectory.header.stamp.to_sec()
+            )
         return Goal(
             list(trajectory.joint_names),
-            _points(trajectory),
+            points_of(trajectory.points, _duration),
             trajectory.header.stamp.to_sec(),
             {t.name: t.position for t in goal.path_tolerance},
             {t.name: t.velocity for t in goal.path_tolerance},

@@ -16,10 +16,10 @@ from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
+from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.trajectory import JAZZY, ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.model import ACTION
-from svhdesc.sim import Point, Simulation
+from svhdesc.sim import Simulation
 
 UNKNOWN = "<not a joint of this controller>:"  # an unknown name can never match a simulation joint
 
@@ -43,18 +43,9 @@ def trajectory_goal(request: Any, to_sim: Mapping[str, str]) -> Goal | Rejection
 
     try:
         trajectory = request.trajectory
-        points = [
-            Point(
-                seconds(p.time_from_start),
-                tuple(p.positions),
-                tuple(p.velocities) or None,
-                tuple(p.accelerations) or None,
-            )
-            for p in trajectory.points
-        ]
         return Goal(
             [sim(n) for n in trajectory.joint_names],
-            points,
+            points_of(trajectory.points, seconds),
             seconds(trajectory.header.stamp),
             {sim(t.name): t.position for t in request.path_tolerance},
             {sim(t.name): t.velocity for t in request.path_tolerance},
