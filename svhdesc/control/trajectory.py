@@ -177,6 +177,7 @@ class JointTrajectoryCore:
         self._reports_velocity = reports_velocity
         self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
         self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
+        self._addresses: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}  # joints -> (qpos, qvel)
         self._limits = {j: sim.limits(j) for j in self.joints}
         self._column = {j: k for k, j in enumerate(self.joints)}
         self._since = sim.time  # when the current hold began (query_state before it fails)
@@ -329,7 +330,7 @@ class JointTrajectoryCore:
     # -- every control period ----------------------------------------------------------------
     def sample(self, joints: Sequence[str], now: float) -> Sample:
         desired = self._sim.desired(joints, now)
-        actual = self._sim.data.qpos[[self._qpos[j] for j in joints]].copy()
+        actual = self._sim.data.qpos[self._address(joints)[0]]  # indexing by an array copies
         return Sample(now, list(joints), desired, actual, self._velocities(joints))
 
     def _subset(self, full: Sample, joints: Sequence[str]) -> Sample:
@@ -413,7 +414,16 @@ class JointTrajectoryCore:
         """The joint velocities the real driver's hardware interface hands the controller."""
         if not self._reports_velocity:
             return np.zeros(len(joints))
-        return self._sim.data.qvel[[self._qvel[j] for j in joints]].copy()
+        return self._sim.data.qvel[self._address(joints)[1]]
+
+    def _address(self, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """qpos and qvel addresses of ``joints`` (remembered: sampled at every update)."""
+        key = tuple(joints)
+        found = self._addresses.get(key)
+        if found is None:
+            qpos = np.array([self._qpos[j] for j in joints], dtype=int)
+            found = self._addresses[key] = (qpos, np.array([self._qvel[j] for j in joints], dtype=int))
+        return found
 
     def _finish(self, code: ErrorCode, text: str, hold: bool = False) -> None:
         active = self._active

@@ -14,6 +14,7 @@ from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.trajectory import ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.control.work import on_sim_thread
 from svhdesc.model import ACTION
+from svhdesc.ros1.system import synchronous_publisher
 from svhdesc.sim import Simulation
 
 
@@ -96,7 +97,7 @@ class TrajectoryController(ForwardsToCore):
         self._command = rospy.Subscriber(
             f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=1
         )
-        self._state = rospy.Publisher(f"{name}/state", msgs.JointTrajectoryControllerState, queue_size=1)
+        self._state = synchronous_publisher(f"{name}/state", msgs.JointTrajectoryControllerState)
         self._state_message = msgs.JointTrajectoryControllerState()
         self._feedback_message = msgs.FollowJointTrajectoryFeedback()
         self._query = rospy.Service(f"{name}/query_state", msgs.QueryTrajectoryState, self._on_query)
@@ -106,6 +107,8 @@ class TrajectoryController(ForwardsToCore):
         # A burst of goals is answered faster than actionlib's result queue of 50 is sent: rospy would drop
         # the oldest results, and their clients would wait for ever.
         self._server.result_pub.impl.set_queue_size(RESULT_QUEUE)
+        # Feedback is sent from the node's publishing thread: synchronously, without rospy's per-message yield.
+        self._server.feedback_pub.impl.set_queue_size(None)
 
     def _on_query(self, request: Any) -> Any:
         """QueryTrajectoryState: answered by the simulation thread, as all work on the simulation."""

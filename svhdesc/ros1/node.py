@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 import warnings
 from collections import deque
 from collections.abc import Sequence
@@ -51,7 +50,7 @@ from svhdesc.model import (
 )
 from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
-from svhdesc.ros1.system import import_ros
+from svhdesc.ros1.system import import_ros, synchronous_publisher
 from svhdesc.sim import Simulation
 
 # Queued callbacks (goals, cancels, commands, queries) worked per control update: a burst of 1000 goals
@@ -98,18 +97,9 @@ def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -
     )
 
 
-def _publisher(rospy: Any, topic: str, kind: Any) -> Any:
-    """A synchronous publisher, used only from the Outbox thread: rospy's queued ones hand every
-    message to another thread and yield (time.sleep(0)), which under the GIL costs up to a switch
-    interval per message."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # rospy warns that queue_size=None publishes synchronously
-        return rospy.Publisher(topic, kind, queue_size=None)
-
-
 class Outbox:
-    """Publishes from its own thread: rospy's queued publish yields the thread after every message
-    (time.sleep(0), ~0.1 ms on a busy machine), which would otherwise stall the simulation. When
+    """Publishes from its own thread with synchronous publishers (system.synchronous_publisher): rospy's queued
+    publish yields the thread after every message (time.sleep(0)), which would otherwise stall the simulation. When
     ``limit`` batches wait, the simulation waits too, so what subscribers see lags the physics by a
     few control periods at most, even when running as fast as possible."""
 
@@ -138,14 +128,13 @@ class Outbox:
                     return
                 batch = self._batches.popleft()
                 self._ready.notify_all()
+            # No time.sleep(0) between messages (about 20 us of CPU each here): every send to a subscriber is a
+            # system call that releases the GIL, so the simulation thread, back from a chunk, takes it there.
             for target, message in batch:
                 try:
                     (target.publish if hasattr(target, "publish") else target)(message)
                 except Exception:  # noqa: BLE001 - at shutdown rospy refuses; the thread must live on
                     pass
-                # Hand the GIL back after each message: the simulation thread, back from a chunk of physics,
-                # would otherwise wait up to the 5 ms switch interval for it.
-                time.sleep(0)
 
     def close(self) -> None:
         with self._ready:
@@ -195,13 +184,13 @@ class SimNode:
         urdf = get(sim.variant).urdf_path
         self._frame = urdf_root(urdf)
         msgs = control_msgs()
-        self._clock = _publisher(rospy, "/clock", Clock)
-        self._joint_states = _publisher(rospy, "joint_states", JointState)
+        self._clock = synchronous_publisher("/clock", Clock)
+        self._joint_states = synchronous_publisher("joint_states", JointState)
         self._Clock, self._JointState = Clock, JointState
         self._PoseStamped, self._WrenchStamped, self._Float64 = PoseStamped, WrenchStamped, Float64
-        self._tracked = [(body, _publisher(rospy, f"tracked/{body}", PoseStamped)) for body in track]
+        self._tracked = [(body, synchronous_publisher(f"tracked/{body}", PoseStamped)) for body in track]
         self._wrenches = [
-            (body, frame, _publisher(rospy, topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
+            (body, frame, synchronous_publisher(topic, WrenchStamped)) for topic, body, frame in f3d_sensors(urdf)
         ]
         self.controllers: list[TrajectoryController] = []
         self._velocity_controllers: list[VelocityGroupController] = []
@@ -254,7 +243,7 @@ class SimNode:
         for joint in connector:
             self.sim.actuator(joint.name)  # an unknown joint fails here, before anything runs
             self.sim.set_gains(joint.name, joint.p_gain, joint.d_gain)
-            topics.append((joint.name, _publisher(rospy, joint.pose_topic, float64)))
+            topics.append((joint.name, synchronous_publisher(joint.pose_topic, float64)))
             rospy.Subscriber(joint.control_topic, float64, self._queued(self._on_target, joint.name), queue_size=10)
             rospy.Subscriber(joint.initpose_topic, float64, self._queued(self._on_initpose, joint.name), queue_size=10)
         return topics

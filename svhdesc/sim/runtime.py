@@ -97,6 +97,7 @@ class Simulation:
             edit(spec)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
+        self._timestep = float(self.model.opt.timestep)  # read at every control update: kept, not re-read
         self.info: RobotInfo = describe(self.model)
         self._act_index = {name: i for i, name in enumerate(self.info.actuators)}
         self._qpos = np.array([self.model.joint(j).qposadr[0] for j in self.info.joints], dtype=int)
@@ -104,6 +105,13 @@ class Simulation:
         self._act_qpos = np.array([self.model.joint(a).qposadr[0] for a in self.info.actuators], dtype=int)
         self._act_qvel = np.array([self.model.joint(a).dofadr[0] for a in self.info.actuators], dtype=int)
         self._ctrlrange = self.model.actuator_ctrlrange.copy()
+        # joint_state's efforts: the actuator force of each actuated joint, 0 on the coupled ones
+        effort_of = {name: a for a, name in enumerate(self.info.actuators)}
+        self._effort_cols = np.array([k for k, j in enumerate(self.info.joints) if j in effort_of], dtype=int)
+        self._effort_acts = np.array([effort_of[j] for j in self.info.joints if j in effort_of], dtype=int)
+        self._bodies: dict[str, int] = {}
+        self._index_cache: dict[tuple[str, ...], list[int]] = {}
+        self._identity = list(range(len(self.info.actuators)))
         limits = urdf_velocity_limits(built.urdf_path) if setpoint_ramp else {}
         ramped = [(self._act_index[j], limits[j]) for j in self.info.hand_channels if limits.get(j, 0.0) > 0.0]
         self._ramped = np.array([i for i, _ in ramped], dtype=int)
@@ -114,6 +122,7 @@ class Simulation:
         self.control_steps = max(1, round(CONTROL_PERIOD / self.timestep))  # physics steps per controller update
         warn = mujoco.mjtWarning
         self._bad_kinds = [int(warn.mjWARN_BADQPOS), int(warn.mjWARN_BADQVEL), int(warn.mjWARN_BADQACC)]
+        self._warning_counts = self.data.warning.number  # a view into mjData, read after every chunk
         self.reset(keyframe)
 
     # -- setup -------------------------------------------------------------------------------
@@ -143,6 +152,14 @@ class Simulation:
             return self._act_index[prefixed]
         raise SvhdescError(f"{name!r} is not an actuated joint of {self.variant}")
 
+    def _indices(self, names: Sequence[str]) -> list[int]:
+        """The actuators of ``names`` (remembered: controllers ask for the same names at every update)."""
+        key = tuple(names)
+        indices = self._index_cache.get(key)
+        if indices is None:
+            indices = self._index_cache[key] = [self.actuator(n) for n in names]
+        return list(indices)
+
     def limits(self, name: str) -> tuple[float, float]:
         """The commandable range of actuated joint ``name`` (its servo's ctrlrange)."""
         low, high = self._ctrlrange[self.actuator(name)]
@@ -154,7 +171,7 @@ class Simulation:
 
     @property
     def timestep(self) -> float:
-        return float(self.model.opt.timestep)
+        return self._timestep
 
     # -- commands ----------------------------------------------------------------------------
     def set_target(self, name: str, value: float) -> None:
@@ -209,7 +226,14 @@ class Simulation:
     def desired(self, names: Sequence[str], at: float | None = None) -> State:
         """The commanded state of actuated joints ``names`` now (trajectory sample or held target)."""
         at = self.time if at is None else at
-        indices = [self.actuator(n) for n in names]
+        indices = self._indices(names)
+        for active in self._active:
+            if active.actuators == indices:  # one trajectory drives exactly these (an actuator has one at most)
+                state = active.trajectory.sample(at)
+                if active.columns == self._identity[: len(indices)]:
+                    return state
+                columns = active.columns
+                return State(state.positions[columns], state.velocities[columns], state.accelerations[columns])
         positions = self.data.ctrl[indices].astype(float)
         velocities = np.zeros(len(indices))
         accelerations = np.zeros(len(indices))
@@ -312,7 +336,7 @@ class Simulation:
         for active in finished:
             self._active.remove(active)
         commanded = self.data.ctrl[self._ramped]
-        if not np.array_equal(commanded, self._setpoint):  # else the setpoint has reached the command
+        if (commanded != self._setpoint).any():  # else the setpoint has reached the command
             reach = self._ramp_step * steps
             self._setpoint = np.minimum(np.maximum(commanded, self._setpoint - reach), self._setpoint + reach)
             self.data.ctrl[self._ramped] = self._setpoint
@@ -321,9 +345,13 @@ class Simulation:
     def _check_diverged(self) -> None:
         """Stop at once, naming the joint, when MuJoCo found a bad state (it then resets it to a finite one, so the
         state alone can look fine) or the state went non-finite."""
+        counts, (qpos_kind, qvel_kind, qacc_kind) = self._warning_counts, self._bad_kinds
+        qpos, qvel = self.data.qpos, self.data.qvel
+        if not (counts[qpos_kind] or counts[qvel_kind] or counts[qacc_kind]) and math.isfinite(
+            qpos @ qpos + qvel @ qvel
+        ):
+            return  # the common case, cheaply (a NaN or infinity makes the sums of squares non-finite): every chunk
         mj, warning = self._mj, self.data.warning
-        if not warning.number[self._bad_kinds].any() and math.isfinite(self.data.qpos.sum() + self.data.qvel.sum()):
-            return  # the common case, cheaply: it runs after every chunk
         kinds = (mj.mjtWarning.mjWARN_BADQPOS, mj.mjtWarning.mjWARN_BADQVEL, mj.mjtWarning.mjWARN_BADQACC)
         bad = [kind for kind in kinds if warning[kind].number]
         if not bad and np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all():
@@ -373,9 +401,7 @@ class Simulation:
     def joint_state(self) -> JointState:
         """Every joint, coupled ones included; efforts are the actuator forces (0 on coupled joints)."""
         efforts = np.zeros(len(self.info.joints))
-        actuator_force = dict(zip(self.info.actuators, self.data.actuator_force))
-        for k, name in enumerate(self.info.joints):
-            efforts[k] = actuator_force.get(name, 0.0)
+        efforts[self._effort_cols] = self.data.actuator_force[self._effort_acts]
         return JointState(
             self.info.joints, self.data.qpos[self._qpos].copy(), self.data.qvel[self._qvel].copy(), efforts
         )
@@ -385,9 +411,12 @@ class Simulation:
         return dict(zip(state.names, state.positions.tolist()))
 
     def _body(self, name: str) -> int:
-        body = self._mj.mj_name2id(self.model, self._mj.mjtObj.mjOBJ_BODY, name)
-        if body < 0:
-            raise SvhdescError(f"{self.variant} has no body {name!r}")
+        body = self._bodies.get(name)
+        if body is None:  # looked up once: publishers read tracked bodies at every state update
+            body = self._mj.mj_name2id(self.model, self._mj.mjtObj.mjOBJ_BODY, name)
+            if body < 0:
+                raise SvhdescError(f"{self.variant} has no body {name!r}")
+            self._bodies[name] = body
         return body
 
     def body_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:

@@ -129,12 +129,17 @@ class Trajectory:
         if time >= self._times[-1]:
             return State(self._final.copy(), np.zeros(n), np.zeros(n))
         index = bisect.bisect_right(self._times, time) - 1
-        c = self._coeffs[index]
         t = time - self._times[index]
-        powers = np.array([1.0, t, t**2, t**3, t**4, t**5])
-        position = powers @ c
-        velocity = np.array([0.0, 1.0, 2.0 * t, 3.0 * t**2, 4.0 * t**3, 5.0 * t**4]) @ c
-        acceleration = np.array([0.0, 0.0, 2.0, 6.0 * t, 12.0 * t**2, 20.0 * t**3]) @ c
+        t2, t3 = t * t, t * t * t
+        # Position, velocity and acceleration in one product (sampled at every control update).
+        powers = np.array(
+            [
+                [1.0, t, t2, t3, t2 * t2, t3 * t2],
+                [0.0, 1.0, 2.0 * t, 3.0 * t2, 4.0 * t3, 5.0 * t2 * t2],
+                [0.0, 0.0, 2.0, 6.0 * t, 12.0 * t2, 20.0 * t3],
+            ]
+        )
+        position, velocity, acceleration = powers @ self._coeffs[index]
         return State(position, velocity, acceleration)
 
 
