@@ -5,7 +5,8 @@ project README's results blocks.
 
 One section per results file, in name order, each with the command, machine and date its script recorded. A block
 ``<!-- results:NAME -->`` ... ``<!-- /results -->`` in the project README gets the first table of
-docs/results/NAME.md and the page's command and date, so a figure shown there is never typed by hand.
+docs/results/NAME.md (``results:NAME:K``: its K-th table) and the page's command and date, so a figure shown
+there is never typed by hand.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "docs" / "results"
 README = REPO / "benchmarks" / "README.md"
 PROJECT_README = REPO / "README.md"
-BLOCK = re.compile(r"(<!-- results:(\w+) -->\n)(.*?)(<!-- /results -->)", re.S)
+BLOCK = re.compile(r"(<!-- results:(\w+)(?::(\d+))? -->\n)(.*?)(<!-- /results -->)", re.S)
 
 INTRO = [
     "# Benchmarks",
@@ -50,27 +51,31 @@ def render(results: Path = RESULTS) -> str:
     return "\n".join(lines) + "\n"
 
 
-def first_table(page: str) -> list[str]:
-    """The first markdown table of a results page, its lines as written."""
-    lines = page.splitlines()
-    start = next((i for i, line in enumerate(lines) if line.startswith("|")), None)
-    if start is None:
-        return []
-    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
-    return lines[start:end]
+def table(page: str, number: int = 1) -> list[str]:
+    """The ``number``-th markdown table of a results page (1: the first), its lines as written."""
+    lines, found, start = page.splitlines(), 0, 0
+    while True:
+        start = next((i for i in range(start, len(lines)) if lines[i].startswith("|")), None)
+        if start is None:
+            return []
+        end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+        found += 1
+        if found == number:
+            return lines[start:end]
+        start = end
 
 
-def block(name: str, results: Path = RESULTS) -> str:
-    """A README results block's body: the page's first table, then where it came from."""
+def block(name: str, results: Path = RESULTS, number: int = 1) -> str:
+    """A README results block's body: the page's ``number``-th table, then where it came from."""
     page = (results / f"{name}.md").read_text(encoding="utf-8")
     meta = fields(page)
     source = f"(Written by {meta.get('command', '?')} on {meta.get('date', '?')}: [docs/results/{name}.md]"
-    return "\n".join([*first_table(page), "", f"{source}(docs/results/{name}.md).)", ""])
+    return "\n".join([*table(page, number), "", f"{source}(docs/results/{name}.md).)", ""])
 
 
 def fill_blocks(text: str, results: Path = RESULTS) -> str:
     """``text`` with every results block refilled from its page."""
-    return BLOCK.sub(lambda m: m.group(1) + block(m.group(2), results) + m.group(4), text)
+    return BLOCK.sub(lambda m: m.group(1) + block(m.group(2), results, int(m.group(3) or 1)) + m.group(5), text)
 
 
 def main() -> None:

@@ -14,7 +14,7 @@ from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.trajectory import ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.control.work import on_sim_thread
 from svhdesc.model import ACTION
-from svhdesc.ros1.system import synchronous_publisher
+from svhdesc.ros1.system import synchronous_publisher, time_out_stalled_subscribers
 from svhdesc.sim import Simulation
 
 
@@ -109,6 +109,7 @@ class TrajectoryController(ForwardsToCore):
         self._server.result_pub.impl.set_queue_size(RESULT_QUEUE)
         # Feedback is sent from the node's publishing thread: synchronously, without rospy's per-message yield.
         self._server.feedback_pub.impl.set_queue_size(None)
+        time_out_stalled_subscribers(self._server.feedback_pub)
 
     def _on_query(self, request: Any) -> Any:
         """QueryTrajectoryState: answered by the simulation thread, as all work on the simulation."""

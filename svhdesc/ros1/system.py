@@ -6,6 +6,7 @@ sys.path so the venv's own packages (numpy, yaml, ...) keep precedence.
 
 from __future__ import annotations
 
+import socket
 import sys
 import warnings
 from types import ModuleType
@@ -37,14 +38,46 @@ def ros_available() -> bool:
     return (Path(DIST_PACKAGES) / "rospy" / "__init__.py").is_file()
 
 
+# s a synchronous send to one subscriber may block before rospy drops that subscriber's connection
+STALLED_SUBSCRIBER_TIMEOUT = 1.0
+# bytes of send buffer per subscriber (Linux doubles it): bounds what a stalled subscriber holds, and without it
+# loopback autotuning grows the buffer to 4 MB, so a stall shows only after a minute at real-time pace
+SEND_BUFFER = 64 * 1024
+
+
 def synchronous_publisher(topic: str, kind: Any) -> Any:
     """A rospy publisher that serialises and sends in ``publish`` itself. rospy's queued ones hand every message
     to a thread per subscriber and then call time.sleep(0) (about 20 us of CPU a message on this project's
-    machine): the node publishes from its own publishing thread instead (node.py's Outbox)."""
+    machine): the node publishes from its own publishing thread instead (node.py's Outbox).
+
+    A subscriber that stops reading would block a synchronous send for ever once the socket's buffers are full,
+    and the node with it: each subscriber's socket gets a bounded send buffer and a send timeout, and rospy closes a
+    connection whose send failed (the subscriber may reconnect), so the node stalls STALLED_SUBSCRIBER_TIMEOUT at
+    most."""
     rospy = import_ros()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # rospy warns that queue_size=None publishes synchronously
-        return rospy.Publisher(topic, kind, queue_size=None)
+        publisher = rospy.Publisher(topic, kind, queue_size=None)
+    time_out_stalled_subscribers(publisher)
+    return publisher
+
+
+def time_out_stalled_subscribers(publisher: Any, seconds: float = STALLED_SUBSCRIBER_TIMEOUT) -> None:
+    """Every connection ``publisher`` accepts from now on sends through SEND_BUFFER with a timeout of ``seconds``."""
+    impl = publisher.impl
+    if getattr(impl, "_svhdesc_timeout", None) is not None:  # rospy shares one impl per topic
+        return
+    add = impl.add_connection
+
+    def add_connection(connection: Any) -> Any:
+        sock = getattr(connection, "socket", None)
+        if sock is not None:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER)
+            sock.settimeout(seconds)
+        return add(connection)
+
+    impl.add_connection = add_connection
+    impl._svhdesc_timeout = seconds
 
 
 def import_ros() -> ModuleType:

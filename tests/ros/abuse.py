@@ -2,7 +2,7 @@
 process): abuses the node named in the environment's master, then checks it still serves. Exits 0 when
 every assertion held; prints what it measured as one JSON line.
 
-usage: abuse.py goals|burst|flood|killed|valid
+usage: abuse.py goals|burst|flood|killed|stalled|valid
 """
 
 from __future__ import annotations
@@ -266,6 +266,37 @@ def killed_client(node: dict[str, Any]) -> None:
     _succeeds(node, 0.4)
 
 
+def stalled(node: dict[str, Any]) -> None:
+    """A subscriber that connects to /joint_states and then never reads (a tiny receive buffer, so the node's send
+    buffer fills within a second or two): the node's synchronous publisher must not block on it for ever."""
+    import os
+    import struct
+    from xmlrpc.client import ServerProxy
+
+    from svhdesc.model import NODE_NAME
+
+    caller = "/svhdesc_stalled"
+    _, _, api = ServerProxy(os.environ["ROS_MASTER_URI"]).lookupNode(caller, f"/{NODE_NAME}")
+    _, _, (_, host, port) = ServerProxy(api).requestTopic(caller, "/joint_states", [["TCPROS"]])
+    fields = [f"{k}={v}".encode() for k, v in (("callerid", caller), ("topic", "/joint_states"), ("md5sum", "*"))]
+    body = b"".join(struct.pack("<I", len(f)) + f for f in fields)
+    stuck = socket.socket()
+    stuck.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 2048)
+    stuck.connect((host, port))
+    stuck.sendall(struct.pack("<I", len(body)) + body)
+    try:
+        states = node["states"]
+        time.sleep(4.0)  # the stuck connection's buffers fill, the send times out, rospy drops it
+        before, begin = len(states), time.monotonic()
+        time.sleep(4.0)
+        rate = (len(states) - before) / (time.monotonic() - begin)
+    finally:
+        stuck.close()
+    node["report"].update(joint_states=rate)
+    assert rate > 30, f"/joint_states at {rate:.1f} Hz (of 50) while a subscriber does not read"
+    _succeeds(node, 0.3)
+
+
 def main(check: str) -> None:
     rospy = import_ros()
     from sensor_msgs.msg import JointState
@@ -276,9 +307,8 @@ def main(check: str) -> None:
     wait_for(lambda: states, 60, "/joint_states")
     node: dict[str, Any] = {"rospy": rospy, "msgs": control_msgs(), "states": states, "report": {}}
     node["client"] = _client(node)
-    {"goals": bad_goals, "burst": burst, "flood": flood, "killed": killed_client, "valid": lambda n: _succeeds(n, 0.1)}[
-        check
-    ](node)
+    checks = {"goals": bad_goals, "burst": burst, "flood": flood, "killed": killed_client, "stalled": stalled}
+    checks.get(check, lambda n: _succeeds(n, 0.1))(node)
     print(json.dumps(node["report"]), flush=True)
     rospy.signal_shutdown("done")
 

@@ -1,6 +1,7 @@
 """The ROS node under abuse: 1000 malformed or random goals (paced, then in one burst) and raw garbage on its
-sockets, /command flooded at 500 Hz for 10 s, a client killed mid-goal. After each, the node still serves (a valid goal
-succeeds, /joint_states flows) and its resident memory grows by less than 10 MB over the module.
+sockets, /command flooded at 500 Hz for 10 s, a client killed mid-goal, a subscriber that stops reading. After
+each, the node still serves (a valid goal succeeds, /joint_states flows) and its resident memory grows by less than
+16 MB over the module.
 
 One node (svh_right, real-time pace) on its own master serves the module (about 40 s in all); each
 check's client runs in its own process (tests/ros/abuse.py), as rospy binds one master per process.
@@ -93,6 +94,14 @@ def test_command_flooded_at_500_hz_for_10_s(node: dict[str, Any]) -> None:
 
 def test_a_client_killed_mid_goal(node: dict[str, Any]) -> None:
     abuse(node, "killed")
+
+
+def test_a_subscriber_that_stops_reading_does_not_stall_the_node(node: dict[str, Any]) -> None:
+    """The node publishes synchronously from its own thread (no rospy queue and thread per subscriber): a socket
+    whose subscriber never reads must not block it. Seeded fault: the send timeout left out (svhdesc/ros1/system.py,
+    time_out_stalled_subscribers without settimeout): /joint_states stopped for everyone (0.0 Hz)."""
+    report = abuse(node, "stalled")
+    assert report["joint_states"] > 30
 
 
 def test_memory_grew_less_than_16_mb(node: dict[str, Any]) -> None:
