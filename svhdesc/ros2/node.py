@@ -11,7 +11,8 @@ with <controller> ``right_hand`` / ``left_hand`` and, with an arm, ``scaled_join
 
 One control update per controller-manager period (``update_rate``, 125 Hz): the simulation steps the physics for a
 period, then this node publishes /clock, updates each controller (tolerances, feedback, controller_state),
-publishes joint_states, records, and runs the work rclpy's callbacks queued. rclpy's executor spins in its own
+publishes joint_states, records, and runs the work rclpy's callbacks queued (at most
+svhdesc.control.work.WORK_PER_UPDATE items per update, the rest at the next ones). rclpy's executor spins in its own
 thread and never touches the simulation.
 """
 
@@ -29,6 +30,7 @@ import yaml
 
 from svhdesc.control.goals import Tolerances
 from svhdesc.control.manager import Loaded
+from svhdesc.control.work import drain
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
     JTC_DEFAULTS,
@@ -167,12 +169,9 @@ class SimNode:
             self.recorder.write(topic, message, at)
 
     def _drain(self) -> None:
-        while self.queue:
-            handler, argument = self.queue.popleft()
-            try:
-                handler(argument)
-            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
-                self.node.get_logger().error(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+        """At most WORK_PER_UPDATE queued callbacks per control update: a burst of goals is spread over updates,
+        and the physics, /clock and joint_states go on between them."""
+        drain(self.queue, self.node.get_logger().error)
 
     def publish(self) -> None:
         """/clock and joint_states at the simulation's time (and into the recording)."""

@@ -264,3 +264,57 @@ def test_recording_reads_back_with_rosbags(served: dict[str, Any]) -> None:
     assert topics["/joint_states"]["names"] == report["joint_states"]["expected"]
     assert topics["/joint_states"]["stamp_is_log_time"]
     assert all(t["increasing"] and t["count"] > 100 for t in topics.values())
+
+
+BURST = """
+import json, sys
+import rclpy
+from svhdesc.control.work import WORK_PER_UPDATE
+from svhdesc.ros2.node import SimNode, controllers_file
+from svhdesc.sim import Simulation
+
+rclpy.init(args=["burst"])
+sim = Simulation("svh_right")
+node = SimNode(sim, controllers_file("svh_right"))
+worked = []
+for _ in range(1000):
+    node.queue.append((lambda _: worked.append(sim.time), None))
+node.spin(1.2, realtime=False)
+node.close()
+print(json.dumps({"limit": WORK_PER_UPDATE, "worked": worked, "period": node.period}))
+"""
+
+
+def test_a_burst_of_queued_work_is_spread_over_updates(tmp_path: Path) -> None:
+    """Issue 29 for ROS 2: 1000 callbacks queued at once (as a burst of goals and cancels queues them) are worked at
+    most WORK_PER_UPDATE (8) per control update, so the physics and /clock (published every update, before the
+    work) go on between them: every instant at which work ran holds at most 8 items, over at least 125 updates.
+    Counted by simulated instant, not by time. Seeded fault: the former unbounded drain (every queued callback in
+    one go) -> failed, all 1000 worked at t = 0."""
+    why = _why_not()
+    if why:
+        pytest.skip(why)
+    namespace = _namespace()
+    assert isinstance(namespace, list)
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "ROS_LOG_DIR": str(tmp_path / "roslog"),
+    }
+    env.pop("ROS_DOMAIN_ID", None)
+    script = f"ip link set lo up && exec {shlex.quote(str(PYTHON))} -c {shlex.quote(BURST)}"
+    result = subprocess.run(
+        [*namespace, "sh", "-c", script], env=env, capture_output=True, text=True, timeout=300, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    worked = report["worked"]
+    per_instant: dict[float, int] = {}
+    for at in worked:
+        per_instant[at] = per_instant.get(at, 0) + 1
+    assert report["limit"] == 8 and len(worked) == 1000
+    assert max(per_instant.values()) <= report["limit"], max(per_instant.values())
+    assert len(per_instant) >= 1000 // report["limit"]
+    steps = sorted({round(b - a, 9) for a, b in zip(sorted(per_instant), sorted(per_instant)[1:])})
+    assert steps == [round(report["period"], 9)], steps  # one update after another, none skipped
