@@ -218,7 +218,9 @@ class SimNode:
                     return False
             return self.update()
 
-        # The runtime steps the physics one control period at a time, keeping to the wall clock when asked.
+        # The runtime steps the physics one control period at a time, keeping to the wall clock when asked; the
+        # trajectories are sampled once per period, as ros2_control updates its controllers at update_rate.
+        self.sim.control_steps = max(1, round(self.period / self.sim.timestep))
         return self.sim.run(duration, realtime=realtime, every=self.period, callback=between_updates)
 
     def close(self) -> None:
