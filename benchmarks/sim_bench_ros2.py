@@ -200,7 +200,8 @@ def main() -> None:
         rate = sum(report["messages"].values()) / report["wall"]
         print(f"{variant:<16} {bare:7.1f}x {node:7.1f}x {node / bare:10.2f} {rate:8.0f}", flush=True)
         per_topic = {t: round(n / report["wall"]) for t, n in report["messages"].items()}
-        print(f"  received per wall s: {per_topic}; feedback {report['feedback']} in {report['wall']:.1f} s")
+        feedback = {c: round(n / report["wall"]) for c, n in report["feedback"].items()}
+        print(f"  received per wall s: {per_topic}; feedback per wall s: {feedback}")
         if report["unsubscribed"]:
             print(f"  not subscribed (type not importable): {report['unsubscribed']}")
     met = all(node / bare >= GOAL for _, bare, node, _ in rows)
