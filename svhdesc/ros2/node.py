@@ -88,8 +88,10 @@ class SimNode:
     def __init__(self, sim: Simulation, controllers: Path, recorder: Any = None) -> None:
         rclpy = import_rclpy()
         from builtin_interfaces.msg import Time
+        from rclpy.clock_type import ClockType
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
+        from rclpy.time import Time as RosTime
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import JointState
 
@@ -104,6 +106,14 @@ class SimNode:
         self.node = rclpy.create_node(
             NODE_NAME, parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
         )
+        # The node publishes /clock itself: its TimeSource's /clock subscription (use_sim_time) would take every
+        # message back through rclpy's executor, a Python callback per update contending for the GIL with the
+        # simulation thread (the as-fast rate 1.2-1.6x lower). It is dropped and publish() sets the ROS time instead;
+        # use_sim_time stays true, so the node's clock (goal stamps, timers) is simulated time as before.
+        for subscription in list(self.node.subscriptions):
+            if subscription.topic_name == "/clock":
+                self.node.destroy_subscription(subscription)
+        self._ros_clock, self._RosTime, self._ros_time = self.node.get_clock(), RosTime, ClockType.ROS_TIME
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self._clock = self.node.create_publisher(Clock, "/clock", 10)
@@ -177,6 +187,7 @@ class SimNode:
         """/clock and joint_states at the simulation's time (and into the recording)."""
         at = self.sim.time
         clock = self._Clock(clock=self._stamp(self._Time, at))
+        self._ros_clock.set_ros_time_override(self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time))
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
         state = self.sim.joint_state()
