@@ -11,7 +11,8 @@ with <controller> ``right_hand`` / ``left_hand`` and, with an arm, ``scaled_join
 
 One control update per controller-manager period (``update_rate``, 125 Hz): the simulation steps the physics for a
 period, then this node publishes /clock, updates each controller (tolerances, feedback, controller_state),
-publishes joint_states, records, and runs the work rclpy's callbacks queued. rclpy's executor spins in its own
+publishes joint_states, records, and runs the work rclpy's callbacks queued (at most
+svhdesc.control.work.WORK_PER_UPDATE items per update, the rest at the next ones). rclpy's executor spins in its own
 thread and never touches the simulation.
 """
 
@@ -29,6 +30,7 @@ import yaml
 
 from svhdesc.control.goals import Tolerances
 from svhdesc.control.manager import Loaded
+from svhdesc.control.work import drain
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
     JTC_DEFAULTS,
@@ -86,8 +88,10 @@ class SimNode:
     def __init__(self, sim: Simulation, controllers: Path, recorder: Any = None) -> None:
         rclpy = import_rclpy()
         from builtin_interfaces.msg import Time
+        from rclpy.clock_type import ClockType
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
+        from rclpy.time import Time as RosTime
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import JointState
 
@@ -102,6 +106,14 @@ class SimNode:
         self.node = rclpy.create_node(
             NODE_NAME, parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
         )
+        # The node publishes /clock itself: its TimeSource's /clock subscription (use_sim_time) would take every
+        # message back through rclpy's executor, a Python callback per update contending for the GIL with the
+        # simulation thread (the as-fast rate 1.2-1.6x lower). It is dropped and publish() sets the ROS time instead;
+        # use_sim_time stays true, so the node's clock (goal stamps, timers) is simulated time as before.
+        for subscription in list(self.node.subscriptions):
+            if subscription.topic_name == "/clock":
+                self.node.destroy_subscription(subscription)
+        self._ros_clock, self._RosTime, self._ros_time = self.node.get_clock(), RosTime, ClockType.ROS_TIME
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self._clock = self.node.create_publisher(Clock, "/clock", 10)
@@ -167,17 +179,15 @@ class SimNode:
             self.recorder.write(topic, message, at)
 
     def _drain(self) -> None:
-        while self.queue:
-            handler, argument = self.queue.popleft()
-            try:
-                handler(argument)
-            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
-                self.node.get_logger().error(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+        """At most WORK_PER_UPDATE queued callbacks per control update: a burst of goals is spread over updates,
+        and the physics, /clock and joint_states go on between them."""
+        drain(self.queue, self.node.get_logger().error)
 
     def publish(self) -> None:
         """/clock and joint_states at the simulation's time (and into the recording)."""
         at = self.sim.time
         clock = self._Clock(clock=self._stamp(self._Time, at))
+        self._ros_clock.set_ros_time_override(self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time))
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
         state = self.sim.joint_state()
@@ -219,7 +229,9 @@ class SimNode:
                     return False
             return self.update()
 
-        # The runtime steps the physics one control period at a time, keeping to the wall clock when asked.
+        # The runtime steps the physics one control period at a time, keeping to the wall clock when asked; the
+        # trajectories are sampled once per period, as ros2_control updates its controllers at update_rate.
+        self.sim.control_steps = max(1, round(self.period / self.sim.timestep))
         return self.sim.run(duration, realtime=realtime, every=self.period, callback=between_updates)
 
     def close(self) -> None:

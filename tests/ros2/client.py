@@ -249,6 +249,11 @@ def controller_states(c: Client) -> dict[str, Any]:
         for name in c.trajectory
     ]
     c.sleep(0.2)
+    # A new subscription's discovery can take longer than 0.2 simulated s on a busy machine: wait for one state
+    # of each controller (bounded), so a slow match is not read as a silent controller.
+    deadline = time.monotonic() + WALL
+    while set(c.controller_states) != set(c.trajectory) and time.monotonic() < deadline:
+        time.sleep(0.01)
     for subscription in subscriptions:
         c.node.destroy_subscription(subscription)
     return {

@@ -264,3 +264,85 @@ def test_recording_reads_back_with_rosbags(served: dict[str, Any]) -> None:
     assert topics["/joint_states"]["names"] == report["joint_states"]["expected"]
     assert topics["/joint_states"]["stamp_is_log_time"]
     assert all(t["increasing"] and t["count"] > 100 for t in topics.values())
+
+
+IN_PROCESS = """
+import json, sys
+import rclpy
+from svhdesc.control.work import WORK_PER_UPDATE
+from svhdesc.ros2.node import SimNode, controllers_file
+from svhdesc.sim import Simulation
+
+rclpy.init(args=["in_process"])
+sim = Simulation("svh_right")
+node = SimNode(sim, controllers_file("svh_right"))
+clock = node.node.get_clock()
+worked = []
+for _ in range(1000):
+    node.queue.append((lambda _: worked.append((sim.time, clock.now().nanoseconds)), None))
+node.spin(1.2, realtime=False)
+report = {
+    "limit": WORK_PER_UPDATE,
+    "worked": worked,
+    "period": node.period,
+    "subscribed": sorted(s.topic_name for s in node.node.subscriptions),
+    "use_sim_time": node.node.get_parameter("use_sim_time").value,
+    "ros_time_active": clock.ros_time_is_active,
+}
+node.close()
+print(json.dumps(report))
+"""
+
+
+@pytest.fixture(scope="module")
+def in_process(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """A SimNode of svh_right in a process of the ROS 2 venv (unshare -n): 1000 callbacks queued at once, each
+    noting the simulated time and the node's clock when it ran, then 1.2 simulated s as fast as possible."""
+    why = _why_not()
+    if why:
+        pytest.skip(why)
+    namespace = _namespace()
+    assert isinstance(namespace, list)
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "ROS_LOG_DIR": str(tmp_path_factory.mktemp("in-process") / "roslog"),
+    }
+    env.pop("ROS_DOMAIN_ID", None)
+    script = f"ip link set lo up && exec {shlex.quote(str(PYTHON))} -c {shlex.quote(IN_PROCESS)}"
+    result = subprocess.run(
+        [*namespace, "sh", "-c", script], env=env, capture_output=True, text=True, timeout=300, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def test_a_burst_of_queued_work_is_spread_over_updates(in_process: dict[str, Any]) -> None:
+    """Issue 29 for ROS 2: 1000 callbacks queued at once (as a burst of goals and cancels queues them) are worked at
+    most WORK_PER_UPDATE (8) per control update, so the physics and /clock (published every update, before the
+    work) go on between them: every instant at which work ran holds at most 8 items, over at least 125 updates.
+    Counted by simulated instant, not by time. Seeded fault: the former unbounded drain (every queued callback in
+    one go) -> failed, all 1000 worked at t = 0."""
+    report = in_process
+    worked = [at for at, _ in report["worked"]]
+    per_instant: dict[float, int] = {}
+    for at in worked:
+        per_instant[at] = per_instant.get(at, 0) + 1
+    assert report["limit"] == 8 and len(worked) == 1000
+    assert max(per_instant.values()) <= report["limit"], max(per_instant.values())
+    assert len(per_instant) >= 1000 // report["limit"]
+    steps = sorted({round(b - a, 9) for a, b in zip(sorted(per_instant), sorted(per_instant)[1:])})
+    assert steps == [round(report["period"], 9)], steps  # one update after another, none skipped
+
+
+def test_the_node_clock_is_simulated_time_without_reading_its_own_clock_topic(in_process: dict[str, Any]) -> None:
+    """use_sim_time is true and the node's ROS clock (goal stamps, timers) reads the simulated time of the update,
+    set by the node itself: it does not subscribe /clock (its TimeSource's subscription would take every /clock it
+    publishes back through rclpy's executor). Seeded faults: the subscription kept (the former node) -> fails
+    (subscribed ['/clock']); the clock not set from publish() -> fails (the clock stays at 0)."""
+    report = in_process
+    assert report["use_sim_time"] and report["ros_time_active"]
+    assert "/clock" not in report["subscribed"], report["subscribed"]
+    assert all(ns == round(at * 1e9) for at, ns in report["worked"]), report["worked"][-3:]
+    assert report["worked"][-1][1] > 0
