@@ -33,6 +33,7 @@ from lxml import etree
 
 from svhdesc.control.goals import Tolerances
 from svhdesc.control.trajectory import due, next_tick
+from svhdesc.control.work import WORK_PER_UPDATE, drain
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
     ACTION_MONITOR_RATE,
@@ -52,10 +53,6 @@ from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
 from svhdesc.ros1.system import import_ros, synchronous_publisher
 from svhdesc.sim import Simulation
-
-# Queued callbacks (goals, cancels, commands, queries) worked per control update: a burst of 1000 goals
-# then takes a few hundred updates, while the physics, /clock and /joint_states go on.
-WORK_PER_UPDATE = 8
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
@@ -276,14 +273,7 @@ class SimNode:
     def _drain(self, limit: int | None = None) -> None:
         """Work the callbacks queued, at most ``limit`` items (a burst of goals is then spread over many
         control updates, and the physics, /clock and /joint_states go on between them)."""
-        done = 0
-        while self.queue and (limit is None or done < limit):
-            handler, argument = self.queue.popleft()
-            done += 1
-            try:
-                handler(argument)
-            except Exception as exc:  # noqa: BLE001 - one bad message must never stop the node
-                self._rospy.logerr(f"{getattr(handler, '__name__', handler)}: {type(exc).__name__}: {exc}")
+        drain(self.queue, self._rospy.logerr, limit)
 
     def _collect(self, batch: list[tuple[Any, Any]]) -> None:
         """What the controllers publish in one control update, sent to the Outbox as one batch."""

@@ -133,11 +133,11 @@ class Trajectory:
         t2, t3 = t * t, t * t * t
         # Position, velocity and acceleration in one product (sampled at every control update).
         powers = np.array(
-            [
-                [1.0, t, t2, t3, t2 * t2, t3 * t2],
-                [0.0, 1.0, 2.0 * t, 3.0 * t2, 4.0 * t3, 5.0 * t2 * t2],
-                [0.0, 0.0, 2.0, 6.0 * t, 12.0 * t2, 20.0 * t3],
-            ]
+            (
+                (1.0, t, t2, t3, t2 * t2, t3 * t2),
+                (0.0, 1.0, 2.0 * t, 3.0 * t2, 4.0 * t3, 5.0 * t2 * t2),
+                (0.0, 0.0, 2.0, 6.0 * t, 12.0 * t2, 20.0 * t3),
+            )
         )
         position, velocity, acceleration = powers @ self._coeffs[index]
         return State(position, velocity, acceleration)
