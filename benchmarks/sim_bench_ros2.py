@@ -25,11 +25,8 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
-
-import mujoco
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -87,14 +84,10 @@ def arguments(argv: list[str]) -> tuple[float, list[str]]:
 
 
 def bare_rate(variant: str, seconds: float) -> float:
-    model = svhdesc.load_mujoco(variant, scene=True)
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    steps = round(seconds / model.opt.timestep)
-    start = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(model, data)
-    return steps * model.opt.timestep / (time.perf_counter() - start)
+    """sim_bench.py's reference: bare mj_step on the node's physics (the goals' motion, 10 steps a call)."""
+    from sim_bench import bare_rate as bare
+
+    return bare(variant, seconds)[0]
 
 
 def goals(variant: str) -> dict[str, dict[str, Any]]:
@@ -171,9 +164,10 @@ def page(window: float, rows: list[tuple[str, float, float, dict[str, Any]]], me
         "Real-time factor of the ROS 2 node (`svhdesc sim VARIANT --ros2 --as-fast`) with every topic it publishes",
         "subscribed by a separate rclpy process (`benchmarks/ros2_bench_subscriber.py`, raw subscriptions, /clock",
         "read) and one goal per trajectory controller executing (home -> `test` over 60 s, so feedback flows),",
-        "beside bare `mj_step` on the same scene (measured just before and after the node, the mean of the two).",
+        "beside bare `mj_step` on the same physics (`sim_bench.py`'s reference: the node's scene, the servos'",
+        "targets moving as the goals move them, 10 steps a call; measured just before and after the node, the mean).",
         f"Node and subscriber share a private network namespace; the node is timed over {window:g} s of wall time.",
-        "The machine is shared (see the header's load): absolute figures are noisy, the ratio less so.",
+        "Absolute figures move with the machine's load (see the header); the ratio less so.",
         "",
         "| variant | bare `mj_step` | ROS 2 node | node / bare | messages received per wall s |",
         "|---|---|---|---|---|",
