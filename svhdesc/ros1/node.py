@@ -195,8 +195,25 @@ class SimNode:
         self._pose_topics = self._connect(rospy, connector, Float64)
         self._pose_messages = [Float64() for _ in self._pose_topics]
         self._joint_state_message, self._clock_message = JointState(), Clock()
+        self._drives_ros_time = self._own_clock(rospy)
         for controller in self.controllers:
             controller.start()
+
+    @staticmethod
+    def _own_clock(rospy: Any) -> bool:
+        """With /use_sim_time, rospy subscribes the node to the /clock it publishes itself: every message would come
+        back through a rospy thread (deserialised, a callback) to set the node's ROS time, contending for the GIL
+        with the simulation thread. The subscription is dropped and the simulation thread sets the ROS time at each
+        /clock instant instead (the node's timers, actionlib's status among them, still run on simulated time).
+        True when it does so."""
+        if rospy.rostime.is_wallclock():
+            return False
+        from rospy.impl import simtime
+
+        if simtime._clock_sub is not None:
+            simtime._clock_sub.unregister()
+            simtime._clock_sub = None
+        return True
 
     def _load_controllers(self, rospy: Any, msgs: Any) -> list[Loaded]:
         """The controllers ur5_bringup.launch and the SVH driver load: joint_state_controller, one trajectory
@@ -351,6 +368,8 @@ class SimNode:
             nonlocal next_state, next_clock
             now = sim.time
             if due(now, next_clock, timestep):
+                if self._drives_ros_time:
+                    rospy.rostime._set_rostime(rospy.Time.from_sec(now))
                 self._batch.append((self._publish_clock, now))
                 next_clock = next_tick(next_clock, self._clock_period, now)
             for controller in self.controllers:

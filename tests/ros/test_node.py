@@ -352,6 +352,25 @@ def test_clock_tracked_pose_and_fingertip_wrench(ros: dict[str, Any]) -> None:
     assert all(math.isfinite(v) for v in (wrench.wrench.force.x, wrench.wrench.torque.z))
 
 
+def test_the_node_keeps_ros_time_without_subscribing_to_its_own_clock(ros: dict[str, Any]) -> None:
+    """The node sets its ROS time itself (no /clock subscription of its own: a rospy thread and callback per
+    message); actionlib's status, stamped with the node's ROS time, still carries simulated time. Seeded faults:
+    the subscription kept (the node listed among /clock's subscribers); the time no longer set (status stamps
+    stayed at 0)."""
+    import rosgraph
+    from actionlib_msgs.msg import GoalStatusArray
+    from rosgraph_msgs.msg import Clock
+
+    from svhdesc.model import NODE_NAME
+
+    _, subscribers, _ = rosgraph.Master("/svhdesc_test").getSystemState()
+    assert not [nodes for topic, nodes in subscribers if topic == "/clock" and f"/{NODE_NAME}" in nodes]
+    rospy = ros["rospy"]
+    now = Latest(rospy, "/clock", Clock).fresh().clock.to_sec()
+    status = Latest(rospy, "/right_hand_controller/follow_joint_trajectory/status", GoalStatusArray).fresh()
+    assert abs(status.header.stamp.to_sec() - now) < 1.0, (status.header.stamp.to_sec(), now)
+
+
 def test_tf_from_robot_state_publisher_covers_every_frame(ros: dict[str, Any]) -> None:
     from lxml import etree
 
