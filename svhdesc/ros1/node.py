@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 import warnings
 from collections import deque
 from collections.abc import Sequence
@@ -53,6 +54,9 @@ from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
 from svhdesc.ros1.system import import_ros, synchronous_publisher
 from svhdesc.sim import Simulation
+
+# wall s between two handovers of messages to the publishing thread (they carry their simulated stamps)
+HANDOVER = 0.002
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
@@ -176,6 +180,7 @@ class SimNode:
         self.queue: deque = deque()
         self.outbox = Outbox()
         self._batch: list[tuple[Any, Any]] = []
+        self._handed = 0.0  # perf_counter of the last handover to the Outbox
         self._period = 1.0 / rate
         self._clock_period = 1.0 / clock_rate
         urdf = get(sim.variant).urdf_path
@@ -379,9 +384,13 @@ class SimNode:
             if due(now, next_state, timestep):
                 self.publish_state()
                 next_state = next_tick(next_state, self._period, now)
-            if self._batch:
+            # Handed over at most every HANDOVER wall seconds: waking the publishing thread is a system call (tens
+            # of microseconds here), and as fast as possible there are thousands of updates a wall second. At
+            # real-time pace every update is further apart than that, so nothing waits.
+            if self._batch and time.perf_counter() - self._handed >= HANDOVER:
                 batch, self._batch = self._batch, []
                 self.outbox.send(batch)
+                self._handed = time.perf_counter()
             if viewer is not None:
                 viewer.sync()
                 if not viewer.running:
