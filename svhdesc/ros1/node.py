@@ -401,7 +401,11 @@ class SimNode:
             return True
 
         between_steps(sim)  # t0: the first /clock and state
-        return sim.run(duration, realtime=realtime, every=periods, callback=between_steps)
+        factor = sim.run(duration, realtime=realtime, every=periods, callback=between_steps)
+        if self._batch:  # what the last updates collected since the last handover
+            batch, self._batch = self._batch, []
+            self.outbox.send(batch)
+        return factor
 
 
 def default_connector(variant: str) -> Path:
