@@ -22,8 +22,6 @@ the node serves there. All work on the simulation happens in one thread; ROS cal
 from __future__ import annotations
 
 import math
-import threading
-import time
 import warnings
 from collections import deque
 from collections.abc import Sequence
@@ -33,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 from lxml import etree
 
 from svhdesc.control.goals import Tolerances
+from svhdesc.control.outbox import Outbox
 from svhdesc.control.trajectory import due, next_tick
 from svhdesc.control.work import WORK_PER_UPDATE, drain
 from svhdesc.errors import SvhdescError
@@ -54,9 +53,6 @@ from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
 from svhdesc.ros1.system import import_ros, synchronous_publisher
 from svhdesc.sim import Simulation
-
-# wall s between two handovers of messages to the publishing thread (they carry their simulated stamps)
-HANDOVER = 0.002
 
 POSITION_INTERFACE = "hardware_interface::PositionJointInterface"
 STATE_INTERFACE = "hardware_interface::JointStateInterface"
@@ -98,52 +94,6 @@ def _tolerances(rospy: Any, controller: str, joints: Sequence[str], kind: str) -
     )
 
 
-class Outbox:
-    """Publishes from its own thread with synchronous publishers (system.synchronous_publisher): rospy's queued
-    publish yields the thread after every message (time.sleep(0)), which would otherwise stall the simulation. When
-    ``limit`` batches wait, the simulation waits too, so what subscribers see lags the physics by a
-    few control periods at most, even when running as fast as possible."""
-
-    def __init__(self, limit: int = 4) -> None:
-        self._batches: deque = deque()
-        self._limit = limit
-        self._ready = threading.Condition()
-        self._closed = False
-        self._thread = threading.Thread(target=self._run, name="svhdesc-outbox", daemon=True)
-        self._thread.start()
-
-    def send(self, batch: list[tuple[Any, Any]]) -> None:
-        """Queue ``batch``: (publisher or any callable taking one message, message) pairs."""
-        with self._ready:
-            while len(self._batches) >= self._limit and not self._closed:
-                self._ready.wait(0.5)
-            self._batches.append(batch)
-            self._ready.notify_all()
-
-    def _run(self) -> None:
-        while True:
-            with self._ready:
-                while not self._batches and not self._closed:
-                    self._ready.wait()
-                if self._closed and not self._batches:
-                    return
-                batch = self._batches.popleft()
-                self._ready.notify_all()
-            # No time.sleep(0) between messages (about 20 us of CPU each here): every send to a subscriber is a
-            # system call that releases the GIL, so the simulation thread, back from a chunk, takes it there.
-            for target, message in batch:
-                try:
-                    (target.publish if hasattr(target, "publish") else target)(message)
-                except Exception:  # noqa: BLE001 - at shutdown rospy refuses; the thread must live on
-                    pass
-
-    def close(self) -> None:
-        with self._ready:
-            self._closed = True
-            self._ready.notify_all()
-        self._thread.join(5.0)
-
-
 def _trajectory_groups(info: Any) -> list[tuple[str, str, list[str], bool, str, bool]]:
     """(name, type, joints, partial goals allowed, kind, running) of each trajectory controller to load."""
     groups = []
@@ -179,8 +129,6 @@ class SimNode:
         self.sim = sim
         self.queue: deque = deque()
         self.outbox = Outbox()
-        self._batch: list[tuple[Any, Any]] = []
-        self._handed = 0.0  # perf_counter of the last handover to the Outbox
         self._period = 1.0 / rate
         self._clock_period = 1.0 / clock_rate
         urdf = get(sim.variant).urdf_path
@@ -298,8 +246,8 @@ class SimNode:
         drain(self.queue, self._rospy.logerr, limit)
 
     def _collect(self, batch: list[tuple[Any, Any]]) -> None:
-        """What the controllers publish in one control update, sent to the Outbox as one batch."""
-        self._batch.extend(batch)
+        """What the controllers publish in one control update, for the Outbox."""
+        self.outbox.extend(batch)
 
     def publish_state(self) -> None:
         """/joint_states, the connector's poses, tracked bodies and fingertip wrenches: read here, built
@@ -311,7 +259,7 @@ class SimNode:
             [sim.body_pose(body) for body, _ in self._tracked],
             [sim.contact_wrench(body) for body, _, _ in self._wrenches],
         )
-        self._batch.append((self._publish_reading, reading))
+        self.outbox.add(self._publish_reading, reading)
 
     def _publish_reading(self, reading: tuple[float, Any, list[Any], list[Any]]) -> None:
         """On the Outbox's thread. Messages are refilled, not rebuilt: a synchronous publish has serialised a
@@ -375,7 +323,7 @@ class SimNode:
             if due(now, next_clock, timestep):
                 if self._drives_ros_time:
                     rospy.rostime._set_rostime(rospy.Time.from_sec(now))
-                self._batch.append((self._publish_clock, now))
+                self.outbox.add(self._publish_clock, now)
                 next_clock = next_tick(next_clock, self._clock_period, now)
             for controller in self.controllers:
                 controller.update()
@@ -384,13 +332,7 @@ class SimNode:
             if due(now, next_state, timestep):
                 self.publish_state()
                 next_state = next_tick(next_state, self._period, now)
-            # Handed over at most every HANDOVER wall seconds: waking the publishing thread is a system call (tens
-            # of microseconds here), and as fast as possible there are thousands of updates a wall second. At
-            # real-time pace every update is further apart than that, so nothing waits.
-            if self._batch and time.perf_counter() - self._handed >= HANDOVER:
-                batch, self._batch = self._batch, []
-                self.outbox.send(batch)
-                self._handed = time.perf_counter()
+            self.outbox.flush()  # at most every HANDOVER wall seconds (control/outbox.py)
             if viewer is not None:
                 viewer.sync()
                 if not viewer.running:
@@ -402,9 +344,7 @@ class SimNode:
 
         between_steps(sim)  # t0: the first /clock and state
         factor = sim.run(duration, realtime=realtime, every=periods, callback=between_steps)
-        if self._batch:  # what the last updates collected since the last handover
-            batch, self._batch = self._batch, []
-            self.outbox.send(batch)
+        self.outbox.flush(force=True)  # what the last updates collected
         return factor
 
 

@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
+from svhdesc.control.outbox import Outbox
 from svhdesc.control.trajectory import JAZZY, ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.model import ACTION
 from svhdesc.sim import Simulation
@@ -91,16 +92,16 @@ class TrajectoryController(ForwardsToCore):
         from rclpy.action import ActionServer
         from rclpy.task import Future
 
-        self._Time, self._Action = Time, FollowJointTrajectory
-        self._Future, self._canceling = Future, GoalStatus.STATUS_CANCELING
-        self.name = name
-        self.joints = list(joints)
+        self._Time, self._Action, self._Future = Time, FollowJointTrajectory, Future
+        self._canceling = GoalStatus.STATUS_CANCELING
+        self.name, self.joints = name, list(joints)
         self._ros_names = [to_ros[j] for j in joints]
         self._to_ros = dict(to_ros)
         self._to_sim = {to_ros[j]: j for j in joints}
         self._node, self._queue, self._wake = node, queue, wake
         self._lock = threading.Lock()
         self.recorder: Callable[[str, Any, float], None] | None = None  # (topic, message, time): --record
+        self.outbox: Outbox | None = None  # state and feedback are published from its thread (None: at once)
         self.core = JointTrajectoryCore(
             name,
             joints,
@@ -199,6 +200,12 @@ class TrajectoryController(ForwardsToCore):
     # The state and feedback messages are refilled, not built: an empty JointTrajectoryControllerState costs rclpy
     # ~0.1 ms (its nested defaults), a refill ~5 us; publish and the recorder serialise them in the call.
     def state(self, sample: Sample) -> None:
+        if self.outbox is not None:
+            self.outbox.add(self._publish_state, sample)
+        else:
+            self._publish_state(sample)
+
+    def _publish_state(self, sample: Sample) -> None:
         message = self._state_message
         message.header.stamp = stamp(self._Time, sample.stamp)
         message.joint_names = [self._to_ros[j] for j in sample.joints]
@@ -209,6 +216,12 @@ class TrajectoryController(ForwardsToCore):
             self.recorder(self._state.topic_name, message, sample.stamp)
 
     def feedback(self, handle: Any, sample: Sample) -> None:
+        if self.outbox is not None:
+            self.outbox.add(lambda s: self._publish_feedback(handle, s), sample)
+        else:
+            self._publish_feedback(handle, sample)
+
+    def _publish_feedback(self, handle: Any, sample: Sample) -> None:
         message = self._feedback_message
         message.header.stamp = stamp(self._Time, sample.stamp)
         message.joint_names = [self._to_ros[j] for j in sample.joints]

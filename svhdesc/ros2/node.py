@@ -30,6 +30,7 @@ import yaml
 
 from svhdesc.control.goals import Tolerances
 from svhdesc.control.manager import Loaded
+from svhdesc.control.outbox import Outbox
 from svhdesc.control.work import drain
 from svhdesc.errors import SvhdescError
 from svhdesc.model import (
@@ -120,6 +121,7 @@ class SimNode:
         self._joint_states = self.node.create_publisher(JointState, "joint_states", 10)
         self._names = [ros2_joint_name(j) for j in sim.info.joints]
         self.controllers: list[TrajectoryController] = []
+        self.outbox = Outbox()  # messages are built and published on its thread (control/outbox.py)
         loaded, interfaces = self._load(controllers, types, parameters)
         self.manager = ControllerManager(self.node, loaded, interfaces, self.queue)
         self._spinner = threading.Thread(target=self._spin, name="svhdesc-rclpy", daemon=True)
@@ -159,7 +161,7 @@ class SimNode:
                 state_period=self.period,  # Jazzy's JTC publishes its state every update
                 reports_velocity=REPORTS_VELOCITY["hand" if hand else "arm"],
             )
-            controller.recorder = self._record
+            controller.recorder, controller.outbox = self._record, self.outbox
             self.controllers.append(controller)
             loaded.append(Loaded(name, kind, "position", [to_ros[j] for j in joints], True, controller))
             interfaces[name] = (
@@ -184,13 +186,17 @@ class SimNode:
         drain(self.queue, self.node.get_logger().error)
 
     def publish(self) -> None:
-        """/clock and joint_states at the simulation's time (and into the recording)."""
+        """/clock and joint_states at the simulation's time (and into the recording): the state is read here,
+        the messages built and published on the Outbox's thread."""
         at = self.sim.time
-        clock = self._Clock(clock=self._stamp(self._Time, at))
         self._ros_clock.set_ros_time_override(self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time))
+        self.outbox.add(self._publish_reading, (at, self.sim.joint_state()))
+
+    def _publish_reading(self, reading: tuple[float, Any]) -> None:
+        at, state = reading
+        clock = self._Clock(clock=self._stamp(self._Time, at))
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
-        state = self.sim.joint_state()
         message = self._JointState(
             name=self._names,
             position=state.positions.tolist(),
@@ -210,6 +216,7 @@ class SimNode:
                 controller.update()
             self.publish()
             self._drain()
+            self.outbox.flush()  # at most every HANDOVER wall seconds
         except Exception:
             if self._rclpy.ok():
                 raise
@@ -232,9 +239,12 @@ class SimNode:
         # The runtime steps the physics one control period at a time, keeping to the wall clock when asked; the
         # trajectories are sampled once per period, as ros2_control updates its controllers at update_rate.
         self.sim.control_steps = max(1, round(self.period / self.sim.timestep))
-        return self.sim.run(duration, realtime=realtime, every=self.period, callback=between_updates)
+        factor = self.sim.run(duration, realtime=realtime, every=self.period, callback=between_updates)
+        self.outbox.flush(force=True)  # what the last updates collected
+        return factor
 
     def close(self) -> None:
+        self.outbox.close()
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
         self._rclpy.try_shutdown()
@@ -284,6 +294,8 @@ def run_node(
         else:  # stopped by a signal: rosout is gone
             print(f"[INFO] [{NODE_NAME}]: {summary}", file=sys.stderr)
     finally:
+        if node is not None:
+            node.outbox.close()  # every message sent (and recorded) before the recording closes
         if recorder is not None:
             recorder.close()
         if window is not None:
