@@ -90,12 +90,12 @@ def built() -> Path:
     return out
 
 
-def exported(config: Path, *names: str) -> dict[str, bytes]:
+def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, bytes]:
     """The outputs ``names`` (registry names, "{robot}.urdf", "{robot}.xml") of the config's one variant, compiled in
     this process by the build's own pipeline and exporters, hulls seeded from generated/ as a build seeds them: the
     bytes ``svhdesc build --config CONFIG`` writes to those files. For the tests of what a setting does to the URDF
     and the MJCF: the outputs a build samples in MuJoCo (SRDF, batch model; about 12 s for each new model) are not
-    made."""
+    made. ``into``: also written there as a build writes them, with the assets (``into``/assets/)."""
     from svhdesc.compiler.build.freshness import svhdesc_version
     from svhdesc.compiler.build.pipeline import compile_variants
     from svhdesc.compiler.build.timings import Timings
@@ -108,7 +108,12 @@ def exported(config: Path, *names: str) -> dict[str, bytes]:
     (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
     built = Built(compiled.robot, compiled.assets, config.parent, svhdesc_version())
     exporters = {output.name: output.export for output in OUTPUTS}
-    return {name.format(robot=compiled.robot.name): exporters[name](built) for name in names}
+    files = {name.format(robot=compiled.robot.name): exporters[name](built) for name in names}
+    if into is not None:
+        for name, data in [*((f"assets/{k}", v) for k, v in compiled.assets.files.items()), *files.items()]:
+            (into / name).parent.mkdir(parents=True, exist_ok=True)
+            (into / name).write_bytes(data)
+    return files
 
 
 def model_files(variant: str) -> tuple[Path, Path]:
