@@ -64,6 +64,7 @@ def compile_hand(config: Path, cache: Path) -> tuple[tuple[int, int, int], list[
     return counts, [files[name] for name in sorted(files) if name.startswith("t_hull_")]
 
 
+@pytest.mark.slow
 def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
     """Through the build's hull source, in process (``compile_hand``; the CLI's counts and --rebuild-collisions:
     test_rebuild_collisions_forces_decomposition)."""
