@@ -1,4 +1,4 @@
-"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`."""
+"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`, `exported`."""
 
 from __future__ import annotations
 
