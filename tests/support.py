@@ -1,4 +1,4 @@
-"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`."""
+"""Shared helpers for the tests: the one session build (`built()`), the one CLI runner, `fails_cleanly`, `exported`."""
 
 from __future__ import annotations
 
@@ -88,6 +88,32 @@ def built() -> Path:
             assert result.returncode == 0, result.stderr
             done.touch()
     return out
+
+
+def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, bytes]:
+    """The outputs ``names`` (registry names, "{robot}.urdf", "{robot}.xml") of the config's one variant, compiled in
+    this process by the build's own pipeline and exporters, hulls seeded from generated/ as a build seeds them: the
+    bytes ``svhdesc build --config CONFIG`` writes to those files. For the tests of what a setting does to the URDF
+    and the MJCF: the outputs a build samples in MuJoCo (SRDF, batch model; about 12 s for each new model) are not
+    made. ``into``: also written there as a build writes them, with the assets (``into``/assets/)."""
+    from svhdesc.compiler.build.freshness import svhdesc_version
+    from svhdesc.compiler.build.pipeline import compile_variants
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.export.registry import OUTPUTS, Built
+
+    hulls = HullSource(HullCache(default_cache_dir()))
+    hulls.seed_from_outputs(sorted(p for p in (REPO / "generated").iterdir() if p.is_dir()))
+    (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
+    built = Built(compiled.robot, compiled.assets, config.parent, svhdesc_version())
+    exporters = {output.name: output.export for output in OUTPUTS}
+    files = {name.format(robot=compiled.robot.name): exporters[name](built) for name in names}
+    if into is not None:
+        for name, data in [*((f"assets/{k}", v) for k, v in compiled.assets.files.items()), *files.items()]:
+            (into / name).parent.mkdir(parents=True, exist_ok=True)
+            (into / name).write_bytes(data)
+    return files
 
 
 def model_files(variant: str) -> tuple[Path, Path]:

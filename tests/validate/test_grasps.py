@@ -1,7 +1,8 @@
 """The hand against facts about the real SVH: the driver's fingertip forces and the grasps it is made for.
 
-`validate --checks fingertip_force,grasps` on a copy of the committed generated/svh_right, clean and with
-one seeded fault each: a servo weakened to half its effort, a pinch target spoiled.
+The clean figures come from the right hand's full validate run (tests/conftest.py `validated`); `validate --checks
+fingertip_force,grasps` on a copy of the committed generated/svh_right with one seeded fault each: a servo weakened
+to half its effort, a pinch target spoiled.
 """
 
 from __future__ import annotations
@@ -23,10 +24,10 @@ pytestmark = pytest.mark.skipif(not (SOURCE / f"{VARIANT}.xml").is_file(), reaso
 GRASPS = ("power", "pinch", "tripod", "lateral", "hook")
 
 
-def test_fingertip_force_matches_the_driver(tmp_path: Path) -> None:
-    urdf, mjcf = faulty_copy(tmp_path)
-    result, checks = validate_pair(urdf, mjcf, tmp_path, "--checks", "fingertip_force")
-    assert result.returncode == 0, result.stdout + result.stderr
+def test_fingertip_force_matches_the_driver(validated: Callable[[str], Any]) -> None:
+    """The fingertip forces of the right hand's full validate run."""
+    result, checks, _ = validated(VARIANT)
+    assert checks["fingertip_force"]["status"] == "pass", result.stdout + result.stderr
     figures = checks["fingertip_force"]["data"]
     # Every channel with a driver force constant; none for Thumb_Opposition and Finger_Spread.
     spec = {c.name: c for c in load_spec(REPO / "config" / "coupling.yaml").channels}

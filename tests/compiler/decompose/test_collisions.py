@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -16,7 +15,8 @@ import yaml
 from lxml import etree
 
 from svhdesc.compiler.decompose import LINK_CLASS_PARAMS
-from tests.support import REPO, VARIANTS, built, run_cli
+from svhdesc.compiler.decompose.cache import CacheWarning
+from tests.support import REPO, VARIANTS, built, exported, run_cli
 
 GENERATED = REPO / "generated"
 
@@ -45,32 +45,42 @@ def hand_config(tmp_path: Path, collision: dict) -> Path:
     return path
 
 
-def _hull_bytes(out: Path) -> list[bytes]:
-    return [p.read_bytes() for p in sorted((out / "hand" / "assets").glob("t_hull_*.obj"))]
+def compile_hand(config: Path, cache: Path) -> tuple[tuple[int, int, int], list[bytes]]:
+    """The config's hand compiled in this process as ``svhdesc build`` compiles it (hull cache ``cache``, seeded from
+    the shipped outputs, nothing from an output folder): the decompositions (run, from the cache, from committed
+    outputs), as ``build --timings`` counts them, and the index fingertip's hulls. The outputs a build samples in
+    MuJoCo are not made."""
+    from svhdesc.compiler.build.pipeline import compile_variants
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.core.settings.config import load_config
+
+    hulls = HullSource(HullCache(cache))
+    hulls.seed_from_outputs(sorted(p for p in GENERATED.iterdir() if p.is_dir()))
+    (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
+    counts = (hulls.counts["decomposed"], hulls.counts["cached"], hulls.counts["committed"])
+    files = compiled.assets.files
+    return counts, [files[name] for name in sorted(files) if name.startswith("t_hull_")]
 
 
 @pytest.mark.slow
 def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
-    cache, out = tmp_path / "cache", tmp_path / "out"
+    """Through the build's hull source, in process (``compile_hand``; the CLI's counts and --rebuild-collisions:
+    test_rebuild_collisions_forces_decomposition)."""
+    cache = tmp_path / "cache"
     one_tip = {"mode": "hull", "links": {"{hand}_t": {"mode": "decompose", "params": {"max_convex_hull": 3}}}}
     config = hand_config(tmp_path, one_tip)
-    args = ("build", "--config", str(config), "--out", str(out), "--timings")
-    first = cli(*args, cache=cache)
-    assert first.returncode == 0, first.stderr
-    assert decomposition_counts(first.stderr) == (1, 0, 0)
-    cold = _hull_bytes(out)
+    counts, cold = compile_hand(config, cache)
+    assert counts == (1, 0, 0)
     assert 1 < len(cold) <= 3
-    # Warm (outputs removed, so only the cache can serve): no decomposition, identical hulls.
-    shutil.rmtree(out)
-    warm = cli(*args, cache=cache)
-    assert decomposition_counts(warm.stderr) == (0, 1, 0)
-    assert _hull_bytes(out) == cold
+    # Warm: no decomposition, identical hulls.
+    assert compile_hand(config, cache) == ((0, 1, 0), cold)
     # A parameter change misses.
     one_tip["links"]["{hand}_t"]["params"]["max_convex_hull"] = 2
     hand_config(tmp_path, one_tip)
-    changed = cli(*args, "--force", cache=cache)
-    assert decomposition_counts(changed.stderr) == (1, 0, 0)
-    capped = _hull_bytes(out)
+    counts, capped = compile_hand(config, cache)
+    assert counts == (1, 0, 0)
     assert len(capped) <= 2
     # A corrupt entry is detected and rebuilt, never used.
     entries = [
@@ -81,11 +91,8 @@ def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
     assert len(entries) == 1
     hull_file = sorted(entries[0].glob("hull_*.stl"))[0]
     hull_file.write_bytes(hull_file.read_bytes()[:100])
-    shutil.rmtree(out)
-    rebuilt = cli(*args, cache=cache)
-    assert rebuilt.returncode == 0, rebuilt.stderr
-    assert decomposition_counts(rebuilt.stderr) == (1, 0, 0)
-    assert _hull_bytes(out) == capped
+    with pytest.warns(CacheWarning, match="does not match its digest; decomposing again"):
+        assert compile_hand(config, cache) == ((1, 0, 0), capped)
 
 
 @pytest.mark.slow
@@ -130,8 +137,7 @@ def test_primitive_collisions_compile_and_simulate(tmp_path: Path) -> None:
     config = hand_config(
         tmp_path, {"mode": "primitive", "primitive": "capsule", "links": {"{hand}_e1": {"primitive": "box"}}}
     )
-    result = cli("build", "--config", str(config), "--out", str(tmp_path / "out"), cache=tmp_path / "c")
-    assert result.returncode == 0, result.stderr
+    exported(config, "{robot}.urdf", "{robot}.xml", into=tmp_path / "out" / "hand")  # no sampled outputs
     model = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / "hand" / "hand.xml"))
     kinds = {int(model.geom_type[g]) for g in range(model.ngeom) if model.geom_group[g] == 3}
     assert kinds == {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX)}

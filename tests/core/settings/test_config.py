@@ -10,10 +10,12 @@ from lxml import etree
 
 from svhdesc.core.source.packages import package_map, resolve_uri
 from svhdesc.errors import SvhdescError
-from tests.support import REPO, run_cli
+from tests.support import REPO, exported, run_cli
 
 
 def build_with(tmp_path: Path, overrides: dict) -> tuple[etree._ElementTree, etree._ElementTree]:
+    """The URDF and the MJCF the build makes of the right hand under ``overrides`` (tests/support.py ``exported``:
+    the build's pipeline and exporters in this process, without the outputs it samples in MuJoCo)."""
     config = {
         "extends": str(REPO / "config" / "svhdesc.yaml"),
         **overrides,
@@ -21,13 +23,10 @@ def build_with(tmp_path: Path, overrides: dict) -> tuple[etree._ElementTree, etr
     }
     path = tmp_path / "custom.yaml"
     path.write_text(yaml.safe_dump(config))
-    result = run_cli("build", "--config", str(path), "--out", str(tmp_path / "out"))
-    assert result.returncode == 0, result.stderr
-    directory = tmp_path / "out" / "hand"
-    return etree.parse(str(directory / "hand.urdf")), etree.parse(str(directory / "hand.xml"))
+    urdf, mjcf = exported(path, "{robot}.urdf", "{robot}.xml").values()
+    return etree.ElementTree(etree.fromstring(urdf)), etree.ElementTree(etree.fromstring(mjcf))
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "condim", "mu"), [("point", "1", 0.0), ("hard_finger", "3", 0.7), ("soft_finger", "4", 0.7)]
 )
@@ -44,7 +43,6 @@ def test_grasp_contact_model_sets_condim_and_gazebo_friction(
     assert (torsional is not None) == (model == "soft_finger")
 
 
-@pytest.mark.slow
 def test_explicit_inertial_wins_and_effort_interface(tmp_path: Path) -> None:
     inertial = {"mass": 0.05, "com": [0.01, 0.0, 0.0], "inertia": [1e-5, 0.0, 0.0, 2e-5, 0.0, 2e-5]}
     urdf, mjcf = build_with(
