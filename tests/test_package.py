@@ -59,7 +59,9 @@ def test_build_with_a_users_config_writes_beside_it(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_installed_wheel_works_anywhere(tmp_path: Path) -> None:
+def test_installed_wheel_works_anywhere(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The wheel's own venv must import the wheel: a PYTHONPATH naming a checkout would win over its site-packages.
+    monkeypatch.delenv("PYTHONPATH", raising=False)
     wheels = tmp_path / "wheels"
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO)],
