@@ -37,7 +37,8 @@ def _read_exactly(sock: socket.socket, size: int) -> bytes:
 
 
 def _handshake(sock: socket.socket, topic: str) -> None:
-    sock.sendall(_header({"callerid": CALLER, "topic": topic, "md5sum": "*"}))  # tcp_nodelay off: the default of rospy and roscpp subscribers
+    # tcp_nodelay not asked for: the default of rospy's and roscpp's subscribers
+    sock.sendall(_header({"callerid": CALLER, "topic": topic, "md5sum": "*"}))
     (size,) = struct.unpack("<I", _read_exactly(sock, 4))
     body, fields = _read_exactly(sock, size), {}
     while body:
