@@ -36,6 +36,7 @@ from results import write  # noqa: E402
 
 import svhdesc  # noqa: E402
 from svhdesc.model import NODE_NAME, ros2_joint_name  # noqa: E402
+from tests.netns import private_namespace  # noqa: E402
 
 GOAL = 0.8
 GOAL_SECONDS = 60.0  # home -> test: long enough to keep feedback flowing through the window at as-fast rates
@@ -56,16 +57,11 @@ def ros2_python() -> Path:
 
 
 def namespace() -> list[str]:
-    """The command that makes a private network namespace: ``unshare -n`` as root, else ``unshare -r -n``."""
-    if shutil.which("unshare") is None or shutil.which("ip") is None:
-        raise BenchError("unshare and ip (util-linux, iproute2) are needed for the private network namespace")
-    why = ""
-    for command in (["unshare", "-n"], ["unshare", "-r", "-n"]):
-        probe = subprocess.run([*command, "true"], capture_output=True, text=True, timeout=30, check=False)
-        if probe.returncode == 0:
-            return command
-        why = probe.stderr.strip()
-    raise BenchError(f"cannot make a network namespace: {why}")
+    """The command that makes a private network namespace (tests/netns.py)."""
+    command = private_namespace()
+    if isinstance(command, str):
+        raise BenchError(command)
+    return command
 
 
 def arguments(argv: list[str]) -> tuple[float, list[str]]:

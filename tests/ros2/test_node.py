@@ -28,12 +28,13 @@ from __future__ import annotations
 import json
 import os
 import shlex
-import shutil
 import subprocess
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from tests.netns import private_namespace
 
 ROOT = Path(__file__).resolve().parents[2]
 CLIENT = Path(__file__).with_name("client.py")
@@ -43,24 +44,10 @@ VARIANTS = ("svh_right", "ur5_svh_right")
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
-def _namespace() -> list[str] | str:
-    """The command that makes a private network namespace: ``unshare -n`` as root, else with a user namespace
-    (``unshare -r -n``, where the kernel allows it); or why neither works."""
-    if shutil.which("unshare") is None or shutil.which("ip") is None:
-        return "unshare and ip (util-linux, iproute2) make the private network namespace"
-    why = ""
-    for command in (["unshare", "-n"], ["unshare", "-r", "-n"]):
-        probe = subprocess.run([*command, "true"], capture_output=True, text=True, timeout=30, check=False)
-        if probe.returncode == 0:
-            return command
-        why = probe.stderr.strip()
-    return f"cannot make a network namespace: {why}"
-
-
 def _why_not() -> str | None:
     if not PYTHON.is_file():
         return f"no ROS 2 Python at {PYTHON} (bash tools/install.sh ros2, or set SVHDESC_ROS2_PYTHON)"
-    namespace = _namespace()
+    namespace = private_namespace()
     if isinstance(namespace, str):
         return namespace
     imports = subprocess.run(
@@ -105,7 +92,7 @@ echo "node $?" >> {work}/exits
         "ROS_LOG_DIR": str(work / "roslog"),
     }
     env.pop("ROS_DOMAIN_ID", None)
-    namespace = _namespace()
+    namespace = private_namespace()
     assert isinstance(namespace, list)
     subprocess.run([*namespace, "sh", "-c", script], env=env, timeout=400, check=False)
     log = (work / "node.log").read_text() if (work / "node.log").exists() else ""
@@ -301,7 +288,7 @@ def in_process(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     why = _why_not()
     if why:
         pytest.skip(why)
-    namespace = _namespace()
+    namespace = private_namespace()
     assert isinstance(namespace, list)
     env = {
         **os.environ,
