@@ -48,7 +48,7 @@ SEND_BUFFER = 64 * 1024
 def synchronous_publisher(topic: str, kind: Any) -> Any:
     """A rospy publisher that serialises and sends in ``publish`` itself. rospy's queued ones hand every message
     to a thread per subscriber and then call time.sleep(0) (about 20 us of CPU a message on this project's
-    machine): the node publishes from its own publishing thread instead (node.py's Outbox).
+    machine): the node publishes from its own publishing thread instead (svhdesc/control/outbox.py).
 
     A subscriber that stops reading would block a synchronous send for ever once the socket's buffers are full,
     and the node with it: each subscriber's socket gets a bounded send buffer and a send timeout, and rospy closes a
