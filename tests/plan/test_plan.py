@@ -51,6 +51,55 @@ def _swept_valid(planner: Planner, plan, rest) -> bool:  # noqa: ANN001
     return True
 
 
+def _pad_under_the_fingertip(depth: float) -> Obstacle:
+    """A small box whose top is ``depth`` above the lowest vertex of the index fingertip's hulls at `home`."""
+    scene = Planner(VARIANT).scene
+    scene.set_state(Planner(VARIANT).resolve("hand", "home"))
+    model, data = scene.model, scene.data
+    tip = model.body("right_hand_t").id
+    lowest = None
+    for geom in np.flatnonzero((model.geom_bodyid == tip) & (model.geom_contype > 0)):
+        mesh = model.geom_dataid[geom]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        points = data.geom_xpos[geom] + model.mesh_vert[start : start + count] @ data.geom_xmat[geom].reshape(3, 3).T
+        candidate = points[np.argmin(points[:, 2])]
+        lowest = candidate if lowest is None or candidate[2] < lowest[2] else lowest
+    half = 0.01
+    return Obstacle("pad", "box", (half, half, half), (lowest[0], lowest[1], lowest[2] + depth - half))
+
+
+def test_the_validity_check_agrees_with_the_reported_pairs() -> None:
+    """valid() (the planner's hot path, decided on MuJoCo's contact arrays) says what colliding_pairs() says, over
+    random states of the arm and of the hand and states near a start whose fingertip rests 0.2 mm deep on a pad
+    (allowed to go on touching by up to TOUCH, no deeper). Seeded faults: the start's touching pairs never allowed
+    (`_may_touch` left empty); allowed at any depth (TOUCH not applied): each disagreed near the start."""
+    pad = Planner(VARIANT, [_pad_under_the_fingertip(2e-4)])
+    scene, config = pad.scene, pad.config
+    rng = np.random.default_rng(3)
+    seen = {"valid": 0, "invalid": 0, "valid while touching": 0}
+    for group, rest, spread in (
+        ("manipulator", "home", None),
+        ("hand", "test", None),
+        ("hand", "home", 0.02),
+        ("manipulator", "home", 0.003),
+    ):
+        joints = config.active(group)
+        index = scene.joint_index(joints)
+        start = pad.resolve(group, rest)
+        scene.set_state(start)
+        low, high = (np.array([bound[j] for j in joints]) for bound in (config.lower, config.upper))
+        if spread is not None:  # near the start, within the joints' limits
+            centre = np.array([start[j] for j in joints])
+            low, high = np.maximum(low, centre - spread), np.minimum(high, centre + spread)
+        for values in rng.uniform(low, high, (300, len(joints))):
+            verdict = scene.valid(index, values)
+            assert verdict == (not scene.colliding_pairs(index, values)), (group, rest, values.tolist())
+            seen["valid" if verdict else "invalid"] += 1
+            seen["valid while touching"] += bool(verdict and (scene.data.contact.dist < -1e-6).any())
+    print(seen)
+    assert all(seen.values()), seen
+
+
 def test_home_to_test_is_timed_within_the_limits(planner: Planner) -> None:
     plan = planner.plan("manipulator", "home", goal="test")
     assert plan.success, plan.message
