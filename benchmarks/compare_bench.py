@@ -71,37 +71,38 @@ DEFAULT_ANALYSIS = """\
   8.9e-15 and the average is the index finger's joints, 1.1e-11 to 1.5e-11, whose servo presses at the driver's
   effort limit. The force is 6.1 N with a standard deviation of 2e-7 N.
 - **ODE as Gazebo Classic runs the generated files matches Table 5.1's order of magnitude, not its trend.** Its
-  averages are 2.46e-5, 2.39e-5 and 2.32e-5 rad at 0.001, 0.01 and 0.1 kg m², against Table 5.1's 5.18e-5,
-  5.82e-6 and 5.79e-6: 0.47, 4.1 and 4.0 times the thesis. It is nearly flat over the inertias (1.03 times from
+  averages are 2.49e-5, 2.37e-5 and 2.33e-5 rad at 0.001, 0.01 and 0.1 kg m², against Table 5.1's 5.18e-5,
+  5.82e-6 and 5.79e-6: 0.48, 4.1 and 4.0 times the thesis. It is nearly flat over the inertias (1.05 times from
   0.01 to 0.001), where Table 5.1 falls 8.9 times from 0.001 to 0.01. At the physical inertials it blows up within
   7 ms; the same run without the URDF's joint damping does not (the bench's last line): Gazebo applies that
   damping explicitly (`implicit_spring_damper` off), which is unstable on the physical finger inertias.
 - **No other engine comes near ODE at 0.001 and 0.01:** MuJoCo, DART, Bullet and Drake average 2.0e-12 to 8.3e-8
-  rad there, 300 times (Bullet at 0.001) to 3.3e6 times (DART at 0.01) below ODE. At 0.1 all five are within
+  rad there, 300 times (Bullet at 0.001) to 1.2e7 times (MuJoCo at 0.001) below ODE. At 0.1 all five are within
   4.6e-6 to 2.3e-5 rad, the order of Table 5.1, where a 0.1 kg m² link on the same 10 N m/rad servo is still
   settling in the recorded window.
 - **Smaller inertia, larger MAD holds from 0.01 to 0.001 in four engines, weakly, and not in MuJoCo.** The
-  average rises 5.0 times in DART, 2.0 in Bullet, 2.0 in Drake and 1.03 in ODE, and falls 3500 times in MuJoCo
+  average rises 5.0 times in DART, 2.0 in Bullet, 2.0 in Drake and 1.05 in ODE, and falls 3500 times in MuJoCo
   (7.0e-9 to 2.0e-12). From 0.01 to 0.1 it rises in MuJoCo, DART, Bullet and Drake (300 to 6.4e5 times) and falls
-  2.9 % in ODE. Table 5.1 itself is less clear-cut above 0.01: from 0.01 to 0.1, 10 of its 15 joints rise while
+  1.7 % in ODE. Table 5.1 itself is less clear-cut above 0.01: from 0.01 to 0.1, 10 of its 15 joints rise while
   the average falls by 0.5 % (`compare_bench.py` prints the count).
 - **Gazebo's force "oscillating around zero" does not appear on ODE with this robot's masses and pose**, in any
   servo variant: every ODE run that does not blow up is in contact in 100 % of the recorded samples. As the
   generated files configure it, every joint is set to its command at every step (fingertip error 1.7-1.8 mm, inside
-  the 2.5 mm overlap) and the fingertip presses 74.6-75.8 N with a standard deviation of 4.9-5.9 N, the noisiest
-  contact here but never lost. With `POSITION_PID` and no compensation the arm's weight lands on the index finger
-  (63 N at 0.001) or folds it (0.01, 0.1: 49-60 mm from the pose, 5.51 +- 1.2 N and 5.99 +- 1.2 N); with the
-  feedforward it presses 2.9-3.2 N within 2.6 mm.
-  So this setup does not produce the intermittent contact; the next section tries the thesis' other conditions.
+  the 2.5 mm overlap) and the fingertip presses 74.5-75.8 N with a standard deviation of 5.5-6.1 N, the noisiest
+  contact below 0.1 kg m² but never lost. With `POSITION_PID` and no compensation the arm's weight lands on the
+  index finger (63 N at 0.001) or folds it (0.01, 0.1: 49-60 mm from the pose, 5.84 +- 1.6 N and 6.17 +- 1.1 N);
+  with the feedforward it presses 3.1-3.4 N within 2.7 mm.
+  So this setup does not produce the intermittent contact;
+  [compare_thesis_setup.md](/docs/results/compare_thesis_setup.md) tries the thesis' other conditions.
 - **Bullet at the physical inertials stalls** (its motors through the gear constraints at the driver's
-  efforts): 20.4 mm from the pose, no sample in contact, MAD 9.9e-3 rad. At the other settings its force
-  is about 30 times MuJoCo's, DART's and Drake's (209-218 N): its motors are velocity constraints that reach the
+  efforts): 24.3 mm from the pose, no sample in contact, MAD 9.8e-3 rad. At the other settings its force
+  is 29-47 times MuJoCo's, DART's and Drake's (209-218 N): its motors are velocity constraints that reach the
   target up to the effort limit, so the arm pushes the 2.5 mm overlap with whatever its 150 N m motors give.
-- **Couplings:** while the hand travels every engine keeps them within 3.7e-3 rad except DART at 0.1 (0.265 rad)
+- **Couplings:** while the hand travels every engine keeps them within 3.7e-3 rad except DART at 0.1 (0.266 rad)
   and ODE at the physical inertials (blown up); `tests/compare/test_compare.py` checks 1e-2 on 1 s runs. Over the whole
-  run DART's MIMIC servo lets a follower lag up to 0.567 rad (0.1) and Bullet's gears 0.576 rad (physical).
+  run DART's MIMIC servo lets a follower lag up to 0.567 rad (0.1) and Bullet's gears 0.455 rad (physical).
 - **Fingertip error** 1.7-1.8 mm for ODE (positions set every step), 2.0-2.8 mm for MuJoCo, DART and Drake below
-  0.1 and 3.8-4.1 mm at 0.1, Bullet 4.6-5.6 mm (20.4 at physical): the surface stops the tip 2.5 mm short of its
+  0.1 and 3.8-4.1 mm at 0.1, Bullet 4.6-5.6 mm (24.3 at physical): the surface stops the tip 2.5 mm short of its
   `test` pose by construction.
 """
 
@@ -117,7 +118,7 @@ THESIS_ANALYSIS = """\
   settings, and DART and Drake only once each: Drake at the physical inertials (-0.378 +- 0.017 N, vertical), DART
   at 0.01 (-3.22 +- 0.00016 N, with a coupled joint 0.78 rad off its leader). ODE, as the generated files configure
   Gazebo, stays 2.1 mm from the pose and presses 8.45 +- 1.6 N at 0.001 and 7.76 +- 1.7 N at 0.01, in contact in
-  every sample; its `POSITION_PID` variants leave the pose (64-358 mm) and never touch.
+  every sample; its `POSITION_PID` variants leave the pose (64-359 mm) and never touch.
 - **At 0.1 kg m² every engine touches, three of them 74-76 mm from the pose:** MuJoCo 1.49 +- 2.4 N, Bullet
   -1.93 +- 13 N (99 % of the samples in contact; both spreads larger than the mean) and Drake 8.6 +- 0.63 N; DART
   -0.786 +- 2.7 N in 14 % of the samples, 3.6 mm from the pose with a coupling 1.36 rad off; ODE 4.5 +- 0.95 N,
