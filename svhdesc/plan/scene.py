@@ -93,8 +93,8 @@ class CollisionScene:
         x = qpos[self._channel] - self._channel0
         qpos[self._coupled] = self._coupled0 + polyval(self._poly.T, x)  # one row of coefficients per power
 
-    def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
-        """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""
+    def _collide(self, index: np.ndarray | None, values: Sequence[float] | None) -> int:
+        """MuJoCo's contacts at the current state, or at ``values`` of the joints at ``index``; how many."""
         mujoco, model, data = self._mj, self.model, self.data
         if index is not None and values is not None:
             data.qpos[index] = values
@@ -102,7 +102,12 @@ class CollisionScene:
         mujoco.mj_kinematics(model, data)
         mujoco.mj_collision(model, data)
         self.checks += 1
-        if data.ncon == 0:
+        return int(data.ncon)
+
+    def colliding_pairs(self, index: np.ndarray | None = None, values: Sequence[float] | None = None) -> list:
+        """(body, body, depth) of every contact the SRDF does not disable, at the current (or given) state."""
+        model, data = self.model, self.data
+        if not self._collide(index, values):
             return []
         found = []
         for contact in data.contact[: data.ncon]:
@@ -119,20 +124,14 @@ class CollisionScene:
     def valid(self, index: np.ndarray, values: Sequence[float]) -> bool:
         """No pair in ``colliding_pairs`` at the given state, decided on MuJoCo's contact arrays at once: the
         planner's hot path (a state in collision has tens of contacts, each a Python object to colliding_pairs)."""
-        mujoco, model, data = self._mj, self.model, self.data
-        data.qpos[index] = values
-        self._couple()
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_collision(model, data)
-        self.checks += 1
-        if data.ncon == 0:
+        if not self._collide(index, values):
             return True
-        contacts = data.contact
+        contacts = self.data.contact
         dist = contacts.dist
         deep = dist < -CLEAR
         if not deep.any():
             return True
-        bodies = model.geom_bodyid[contacts.geom[deep]]
+        bodies = self.model.geom_bodyid[contacts.geom[deep]]
         first, second = bodies[:, 0], bodies[:, 1]
         allowed = self._ignored[first, second] | (self._may_touch[first, second] & (dist[deep] >= -TOUCH))
         return bool(allowed.all())
