@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from svhdesc.errors import SvhdescError
-from svhdesc.paths import default_config, generated_dir, source_root
+from svhdesc.paths import default_config, generated_dir, source_root, user_cache
 from svhdesc.polynomial import polyval
 
 if TYPE_CHECKING:
@@ -218,7 +218,7 @@ class Model:
         content under $XDG_CACHE_HOME/svhdesc/urdf; the shipped files stay untouched."""
         text = self.urdf_text(uris)
         digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "svhdesc" / "urdf"
+        cache = user_cache("urdf")
         path = cache / f"{self.name}-{digest}.urdf"
         if not path.is_file():
             cache.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,7 @@ whichever checkout (or wheel) the interpreter imported svhdesc from. A wheel shi
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from svhdesc.errors import SvhdescError
@@ -15,6 +16,11 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 SHIPPED_SOURCE = PACKAGE_DIR / "source"
 SHIPPED_MODELS = PACKAGE_DIR / "generated"
 CONFIG_NAME = Path("config") / "svhdesc.yaml"
+
+
+def user_cache(name: str) -> Path:
+    """``$XDG_CACHE_HOME/svhdesc/NAME`` (``~/.cache`` where the variable is unset or empty, as the XDG spec says)."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "svhdesc" / name
 
 
 def is_checkout(directory: Path) -> bool:

@@ -25,12 +25,13 @@ from typing import Any
 import pytest
 import yaml
 
+from svhdesc.paths import user_cache
+
 REPO = Path(__file__).resolve().parents[1]
 TESTS = REPO / "tests"
 # MuJoCo Warp compiles its kernels once (about 45 s of CPU) into the user's cache, beside the loaders' URDFs, so that
 # a clean clone (CI's) finds them; CLI subprocesses inherit the path. Kernels are keyed by their source and version.
-_USER_CACHE = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "svhdesc"
-os.environ.setdefault("WARP_CACHE_PATH", str(_USER_CACHE / "warp"))
+os.environ.setdefault("WARP_CACHE_PATH", str(user_cache("warp")))
 # One folder for the whole run, made by the controller (or the only process) and inherited by xdist's workers: the
 # decomposition cache (never the user's) and the session build (tests/support.py built()).
 OWN_RUN = "SVHDESC_TEST_RUN" not in os.environ

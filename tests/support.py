@@ -9,6 +9,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -90,6 +91,20 @@ def built() -> Path:
     return out
 
 
+def compiled_variant(config: Path, cache: Path) -> tuple[Any, Any]:
+    """The config's one variant compiled in this process as ``svhdesc build`` compiles it (hull cache ``cache``,
+    seeded from generated/, nothing from an output folder), and the hull source (its ``counts``)."""
+    from svhdesc.compiler.build.pipeline import compile_variants
+    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource
+
+    hulls = HullSource(HullCache(cache))
+    hulls.seed_from_outputs(sorted(p for p in (REPO / "generated").iterdir() if p.is_dir()))
+    (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
+    return compiled, hulls
+
+
 def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, bytes]:
     """The outputs ``names`` (registry names, "{robot}.urdf", "{robot}.xml") of the config's one variant, compiled in
     this process by the build's own pipeline and exporters, hulls seeded from generated/ as a build seeds them: the
@@ -97,15 +112,10 @@ def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, b
     and the MJCF: the outputs a build samples in MuJoCo (SRDF, batch model; about 12 s for each new model) are not
     made. ``into``: also written there as a build writes them, with the assets (``into``/assets/)."""
     from svhdesc.compiler.build.freshness import svhdesc_version
-    from svhdesc.compiler.build.pipeline import compile_variants
-    from svhdesc.compiler.build.timings import Timings
-    from svhdesc.compiler.decompose import HullCache
-    from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.decompose.source import default_cache_dir
     from svhdesc.compiler.export.registry import OUTPUTS, Built
 
-    hulls = HullSource(HullCache(default_cache_dir()))
-    hulls.seed_from_outputs(sorted(p for p in (REPO / "generated").iterdir() if p.is_dir()))
-    (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
+    compiled, _ = compiled_variant(config, default_cache_dir())
     built = Built(compiled.robot, compiled.assets, config.parent, svhdesc_version())
     exporters = {output.name: output.export for output in OUTPUTS}
     files = {name.format(robot=compiled.robot.name): exporters[name](built) for name in names}

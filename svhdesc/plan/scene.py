@@ -57,16 +57,10 @@ class CollisionScene:
         self._coupled, self._channel = coupled, channel
         self._coupled0, self._channel0 = model.qpos0[coupled].copy(), model.qpos0[channel].copy()
         self._poly = np.array([c.coeffs for c in found], dtype=float).reshape(len(found), 5)
-        # valid()'s tables, by body index: pairs never reported (one body; the SRDF's disabled pairs) and pairs
-        # that may touch by up to TOUCH (refilled by set_state)
-        index = {name: b for b, name in enumerate(self._body)}
-        self._ignored = np.eye(model.nbody, dtype=bool)
-        for pair in config.disabled:
-            if len(pair) == 2 and set(pair) <= index.keys():
-                a, b = (index[name] for name in pair)
-                self._ignored[a, b] = self._ignored[b, a] = True
-        self._may_touch = np.zeros_like(self._ignored)
-        self._index = index
+        # valid()'s table, by body index: the pairs that may touch by up to TOUCH (refilled by set_state). The
+        # SRDF's pairs need none: they are the excludes above, so MuJoCo makes no contact between them.
+        self._index = {name: b for b, name in enumerate(self._body)}
+        self._may_touch = np.zeros((model.nbody, model.nbody), dtype=bool)
         self.checks = 0
         self.touching: frozenset = frozenset()
 
@@ -133,5 +127,4 @@ class CollisionScene:
             return True
         bodies = self.model.geom_bodyid[contacts.geom[deep]]
         first, second = bodies[:, 0], bodies[:, 1]
-        allowed = self._ignored[first, second] | (self._may_touch[first, second] & (dist[deep] >= -TOUCH))
-        return bool(allowed.all())
+        return bool((self._may_touch[first, second] & (dist[deep] >= -TOUCH)).all())

@@ -53,8 +53,9 @@ def _swept_valid(planner: Planner, plan, rest) -> bool:  # noqa: ANN001
 
 def _pad_under_the_fingertip(depth: float) -> Obstacle:
     """A small box whose top is ``depth`` above the lowest vertex of the index fingertip's hulls at `home`."""
-    scene = Planner(VARIANT).scene
-    scene.set_state(Planner(VARIANT).resolve("hand", "home"))
+    planner = Planner(VARIANT)
+    scene = planner.scene
+    scene.set_state(planner.resolve("hand", "home"))
     model, data = scene.model, scene.data
     tip = model.body("right_hand_t").id
     lowest = None

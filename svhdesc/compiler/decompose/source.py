@@ -16,13 +16,14 @@ from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.compiler.decompose.pool import parallel_decompose
 from svhdesc.core import manifest as manifest_file
 from svhdesc.core.source.meshes import stl_bytes
+from svhdesc.paths import user_cache
 
 
 def default_cache_dir() -> Path:
     explicit = os.environ.get("SVHDESC_CACHE")
     if explicit:
         return Path(explicit)
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "svhdesc" / "hulls"
+    return user_cache("hulls")
 
 
 def _mesh(data: bytes, file_type: str = "stl") -> trimesh.Trimesh:

@@ -16,7 +16,7 @@ from lxml import etree
 
 from svhdesc.compiler.decompose import LINK_CLASS_PARAMS
 from svhdesc.compiler.decompose.cache import CacheWarning
-from tests.support import REPO, VARIANTS, built, exported, run_cli
+from tests.support import REPO, VARIANTS, built, compiled_variant, exported, run_cli
 
 GENERATED = REPO / "generated"
 
@@ -46,19 +46,10 @@ def hand_config(tmp_path: Path, collision: dict) -> Path:
 
 
 def compile_hand(config: Path, cache: Path) -> tuple[tuple[int, int, int], list[bytes]]:
-    """The config's hand compiled in this process as ``svhdesc build`` compiles it (hull cache ``cache``, seeded from
-    the shipped outputs, nothing from an output folder): the decompositions (run, from the cache, from committed
-    outputs), as ``build --timings`` counts them, and the index fingertip's hulls. The outputs a build samples in
-    MuJoCo are not made."""
-    from svhdesc.compiler.build.pipeline import compile_variants
-    from svhdesc.compiler.build.timings import Timings
-    from svhdesc.compiler.decompose import HullCache
-    from svhdesc.compiler.decompose.source import HullSource
-    from svhdesc.core.settings.config import load_config
-
-    hulls = HullSource(HullCache(cache))
-    hulls.seed_from_outputs(sorted(p for p in GENERATED.iterdir() if p.is_dir()))
-    (compiled,) = compile_variants(load_config(config), [], {}, hulls, Timings())
+    """The config's hand compiled in this process (tests/support.py ``compiled_variant``; the outputs a build samples
+    in MuJoCo are not made): the decompositions (run, from the cache, from committed outputs), as ``build
+    --timings`` counts them, and the index fingertip's hulls."""
+    compiled, hulls = compiled_variant(config, cache)
     counts = (hulls.counts["decomposed"], hulls.counts["cached"], hulls.counts["committed"])
     files = compiled.assets.files
     return counts, [files[name] for name in sorted(files) if name.startswith("t_hull_")]
