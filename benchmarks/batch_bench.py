@@ -30,6 +30,7 @@ os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
 import mujoco  # noqa: E402
 
 import svhdesc  # noqa: E402
+from svhdesc.batch.env import BatchOverflow  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from results import cpu_model, write  # noqa: E402
@@ -81,10 +82,12 @@ def mujoco_c_rate(model: mujoco.MjModel, grasp: bool, steps: int) -> float:
     return steps / (time.perf_counter() - start)
 
 
-def warp_rate(model: mujoco.MjModel, grasp: bool, nworld: int, device: str, steps: int) -> float:
+def warp_rate(
+    model: mujoco.MjModel, grasp: bool, nworld: int, device: str, steps: int, njmax: int | None = None
+) -> float:
     from svhdesc.batch.env import BatchEnv  # after quiet_init: importing it would start Warp with its banner
 
-    env = BatchEnv(model, nworld=nworld, device=device)
+    env = BatchEnv(model, nworld=nworld, device=device, njmax=njmax)
     env.reset(start_key(grasp))
     ctrl = targets(model, nworld, grasp)
     for _ in range(2):  # warm-up: kernels compiled (first call), on a GPU the step graph captured (second)
@@ -121,6 +124,15 @@ def main() -> None:
     parser.add_argument(
         "--grasp", action="store_true", help="contact-rich: every world closes the power grasp on its object"
     )
+    parser.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        help="seconds: start no row that would end past this (the page says where it stopped)",
+    )
+    parser.add_argument(
+        "--njmax", type=int, default=None, help="constraint rows per world instead of the model's <size njmax>"
+    )
     args = parser.parse_args()
     gpu = args.device.startswith("cuda")
     largest = args.max_nworld or (4096 if gpu else 256)
@@ -129,8 +141,11 @@ def main() -> None:
     model = scene(args.variant, args.grasp)
     reference = mujoco_c_rate(model, args.grasp, 2000)
     what = "closing the power grasp on its object" if args.grasp else "random servo targets"
+    sizes = f"capacities nconmax={model.nconmax}, njmax={model.njmax}"
+    if args.njmax is not None:
+        sizes = f"capacities nconmax={model.nconmax}, njmax={args.njmax} (the model's {model.njmax}, set by --njmax)"
     lines = [
-        f"{args.variant}, {what}, on {args.device} ({name}); {steps} steps timed per row",
+        f"{args.variant}, {what}, on {args.device} ({name}); {steps} steps timed per row; {sizes} per world",
         "",
         f"MuJoCo C, one thread, same scene: {reference:,.0f} steps/s",
         "",
@@ -139,16 +154,25 @@ def main() -> None:
     ]
     for line in lines:
         print(line)
-    rate, nworld = 0.0, 1
+    rate, nworld, began, next_row = 0.0, 1, time.perf_counter(), 0.0
     while nworld <= largest:
+        if args.budget is not None and time.perf_counter() - began + next_row > args.budget:
+            lines.append(f"| {nworld} | not run: the next row would pass the {args.budget:.0f} s budget | |")
+            print(lines[-1])
+            break
         try:
-            rate = warp_rate(model, args.grasp, nworld, args.device, steps)
+            rate = warp_rate(model, args.grasp, nworld, args.device, steps, args.njmax)
+        except BatchOverflow as error:  # a world needed more than its capacities: no figure past this row
+            lines.append(f"| {nworld} | overflow: {str(error).split('; capacities')[0]} | |")
+            print(lines[-1])
+            break
         except (RuntimeError, MemoryError) as error:  # Warp's allocation failure: the previous row was the largest
             lines.append(f"| {nworld} | does not fit: {(str(error) or type(error).__name__).splitlines()[0]} | |")
             print(lines[-1])
             break
         lines.append(f"| {nworld} | {rate:,.0f} | {rate / reference:.2f} |")
         print(lines[-1], flush=True)
+        next_row = 3 * 4 * nworld * steps / rate  # a row steps three times (two warm-ups), the next 4x the worlds
         nworld *= 4
     if gpu:
         lines += ["", f"goal: 1,000,000 world-steps/s ({'met' if rate >= 1e6 else 'not met'} at the largest row)"]
@@ -156,7 +180,9 @@ def main() -> None:
     else:
         lines += ["", *CPU_NOTE]
     path = write(
-        page_name(args.variant, gpu, args.grasp), f"Batch (MuJoCo Warp): {args.variant} on {args.device}", lines
+        page_name(args.variant, gpu, args.grasp) + (f"_njmax{args.njmax}" if args.njmax is not None else ""),
+        f"Batch (MuJoCo Warp): {args.variant} on {args.device}",
+        lines,
     )
     print(f"wrote {path.relative_to(REPO)}")
 
