@@ -58,23 +58,37 @@ def collision_pairs(model: Any) -> np.ndarray:
     return np.array(pairs, dtype=int).reshape(-1, 2)
 
 
-def body_radius(model: Any) -> np.ndarray:
-    """Per body, a sphere about its frame origin holding every bounding sphere of its geoms (planes left out)."""
-    reach = np.linalg.norm(model.geom_pos, axis=1) + model.geom_rbound
+def body_spheres(model: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Per body, a sphere holding every bounding sphere of its geoms (planes left out): its centre in the body's
+    frame (the middle of the box around those spheres) and its radius. Zero radius for a body without them."""
+    solid = model.geom_rbound > 0
+    low = np.full((model.nbody, 3), np.inf)
+    high = np.full((model.nbody, 3), -np.inf)
+    reach = model.geom_rbound[:, None]
+    np.minimum.at(low, model.geom_bodyid[solid], (model.geom_pos - reach)[solid])
+    np.maximum.at(high, model.geom_bodyid[solid], (model.geom_pos + reach)[solid])
+    empty = ~np.isfinite(low)  # no solid geom: a zero sphere at the body's origin
+    low[empty], high[empty] = 0.0, 0.0
+    centre = (low + high) / 2
+    extent = np.linalg.norm(model.geom_pos - centre[model.geom_bodyid], axis=1) + model.geom_rbound
     radius = np.zeros(model.nbody)
-    np.maximum.at(radius, model.geom_bodyid, np.where(model.geom_rbound > 0, reach, 0.0))
-    return radius
+    np.maximum.at(radius, model.geom_bodyid, np.where(solid, extent, 0.0))
+    return centre, radius
 
 
 def broadphase_candidates(
-    model: Any, xpos: np.ndarray, xmat: np.ndarray, body_xpos: np.ndarray, pairs: np.ndarray
+    model: Any,
+    xpos: np.ndarray,
+    xmat: np.ndarray,
+    body_frames: tuple[np.ndarray, np.ndarray],
+    pairs: np.ndarray,
 ) -> np.ndarray:
     """Per state, the pairs that pass Warp's default broadphase: bounding spheres overlap, then oriented bounding
     boxes overlap along the six face normals (mj_collideOBB); a plane and a bounding sphere that reaches it.
 
-    ``xpos`` (T x ngeom x 3), ``xmat`` (T x ngeom x 9) and ``body_xpos`` (T x nbody x 3) are T states' geom_xpos,
-    geom_xmat and xpos; one count each. Body spheres holding their geoms' spheres only pick the pairs worth the
-    exact tests: a pair they leave out cannot pass them.
+    ``xpos`` (T x ngeom x 3) and ``xmat`` (T x ngeom x 9) are T states' geom_xpos and geom_xmat, ``body_frames``
+    their bodies' xpos (T x nbody x 3) and xmat (T x nbody x 9); one count each. Body spheres holding their geoms'
+    spheres (``body_spheres``) only pick the pairs worth the exact tests: a pair they leave out cannot pass them.
     """
     g1, g2 = pairs[:, 0], pairs[:, 1]
     r1, r2 = model.geom_rbound[g1], model.geom_rbound[g2]
@@ -94,9 +108,11 @@ def broadphase_candidates(
     b1, b2 = model.geom_bodyid[g1[solid]], model.geom_bodyid[g2[solid]]
     body_pairs, index = np.unique(b1 * model.nbody + b2, return_inverse=True)
     first, second = np.divmod(body_pairs, model.nbody)
-    radius = body_radius(model)
+    centre, radius = body_spheres(model)
     slack = radius[first] + radius[second] + margin.max(initial=0.0) + 1e-9  # 1e-9 m: rounding, never a miss
-    apart = body_xpos[:, second] - body_xpos[:, first]
+    body_xpos, body_xmat = body_frames
+    middle = body_xpos + np.einsum("tbij,bj->tbi", body_xmat.reshape(*body_xmat.shape[:2], 3, 3), centre)
+    apart = middle[:, second] - middle[:, first]
     step, row = np.nonzero(((apart * apart).sum(axis=2) <= slack * slack)[:, index])
     pair = solid[row]
     offset = xpos[step, g2[pair]] - xpos[step, g1[pair]]
@@ -164,7 +180,7 @@ def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, asset
     pairs = collision_pairs(model)
     worst_ncon = worst_nefc = worst_candidates = 0
     xpos, xmat = np.empty((steps, model.ngeom, 3)), np.empty((steps, model.ngeom, 9))
-    body_xpos = np.empty((steps, model.nbody, 3))
+    body_xpos, body_xmat = np.empty((steps, model.nbody, 3)), np.empty((steps, model.nbody, 9))
     for target in _targets(model):
         if home >= 0:
             mujoco.mj_resetDataKeyframe(model, data, home)
@@ -175,10 +191,12 @@ def sample_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, asset
             mujoco.mj_step(model, data)
             worst_ncon = max(worst_ncon, int(data.ncon))
             worst_nefc = max(worst_nefc, int(data.nefc))
-            xpos[step], xmat[step], body_xpos[step] = data.geom_xpos, data.geom_xmat, data.xpos
+            xpos[step], xmat[step] = data.geom_xpos, data.geom_xmat
+            body_xpos[step], body_xmat[step] = data.xpos, data.xmat
         # The broadphase of the whole rollout at once, in chunks that keep the arrays small.
         for first in range(0, steps, CHUNK):
             chunk = slice(first, first + CHUNK)
-            counts = broadphase_candidates(model, xpos[chunk], xmat[chunk], body_xpos[chunk], pairs)
+            frames = (body_xpos[chunk], body_xmat[chunk])
+            counts = broadphase_candidates(model, xpos[chunk], xmat[chunk], frames, pairs)
             worst_candidates = max(worst_candidates, int(counts.max(initial=0)))
     return Capacities.from_worst_case(worst_ncon, worst_candidates, worst_nefc)
