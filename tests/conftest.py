@@ -1,7 +1,8 @@
 """Session-wide test settings and the shared fixtures.
 
 - The Warp kernel cache; the run's folder with its hull cache (never the user's) and its one session build
-  (`session_build`, tests/support.py `built()`), shared by pytest-xdist's workers.
+  (`session_build`, tests/support.py `built()`), shared by pytest-xdist's workers and started in the background as
+  soon as collection shows that a test needs it.
 - The markers, set here by path so that a moved or new module cannot miss them: `ros` for every module under
   tests/ros and every module that starts a master (it imports tests/rosmaster.py); `slow` for those and the modules in
   SLOW. `pytest -m "not slow"` is the quick set for development; the README's command and CI run everything.
@@ -16,7 +17,9 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -42,7 +45,54 @@ if OWN_RUN:
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     if OWN_RUN and not hasattr(config, "workerinput"):  # the controller (or a run without xdist) made it
+        stop_prefetched_build()
         shutil.rmtree(os.environ["SVHDESC_TEST_RUN"], ignore_errors=True)
+
+
+# The session build takes about 45 s of one core. Started in the background once the run is known to need it,
+# it overlaps the tests that come first instead of keeping a worker waiting on built()'s lock for it.
+PREFETCH = "build.prefetch"  # in the run's folder: the background build's process id, written once
+
+
+def _needs_session_build(item: pytest.Item) -> bool:
+    import tests.support
+
+    module = getattr(item, "module", None)
+    uses = {getattr(module, name, None) for name in ("built", "model_files")} if module is not None else set()
+    return "session_build" in getattr(item, "fixturenames", ()) or bool(
+        uses & {tests.support.built, tests.support.model_files}
+    )
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    run = Path(os.environ["SVHDESC_TEST_RUN"])
+    if (run / "build.done").exists() or not any(_needs_session_build(item) for item in session.items):
+        return
+    try:  # the first process here starts it; xdist's other workers find the file
+        descriptor = os.open(run / PREFETCH, os.O_WRONLY | os.O_CREAT | os.O_EXCL)
+    except FileExistsError:
+        return
+    with open(run / "build.prefetch.log", "wb") as log:  # built() takes the lock first, so a test waits on it
+        process = subprocess.Popen(
+            [sys.executable, "-c", "from tests.support import built; built()"],
+            cwd=REPO,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+    os.write(descriptor, str(process.pid).encode())
+    os.close(descriptor)
+
+
+def stop_prefetched_build() -> None:
+    """A run that ends before its background build (a test selection, an interrupt) takes it down."""
+    run = Path(os.environ["SVHDESC_TEST_RUN"])
+    if (run / "build.done").exists():  # it has finished, or is about to: its id may soon be another's
+        return
+    try:
+        os.killpg(int((run / PREFETCH).read_text()), signal.SIGKILL)
+    except (OSError, ValueError):  # none started, or it has ended
+        pass
 
 
 # Modules (paths under tests/) whose tests take tens of seconds each: engines, grasps held for seconds, Warp, full
