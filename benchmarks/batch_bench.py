@@ -141,9 +141,9 @@ def main() -> None:
     model = scene(args.variant, args.grasp)
     reference = mujoco_c_rate(model, args.grasp, 2000)
     what = "closing the power grasp on its object" if args.grasp else "random servo targets"
-    sizes = f"capacities nconmax={model.nconmax}, njmax={model.njmax}"
+    sizes = f"capacities nconmax={model.nconmax}, njmax={args.njmax or model.njmax}"
     if args.njmax is not None:
-        sizes = f"capacities nconmax={model.nconmax}, njmax={args.njmax} (the model's {model.njmax}, set by --njmax)"
+        sizes += f" (the model's {model.njmax}, set by --njmax)"
     lines = [
         f"{args.variant}, {what}, on {args.device} ({name}); {steps} steps timed per row; {sizes} per world",
         "",
@@ -180,20 +180,21 @@ def main() -> None:
     else:
         lines += ["", *CPU_NOTE]
     path = write(
-        page_name(args.variant, gpu, args.grasp) + (f"_njmax{args.njmax}" if args.njmax is not None else ""),
+        page_name(args.variant, gpu, args.grasp, args.njmax),
         f"Batch (MuJoCo Warp): {args.variant} on {args.device}",
         lines,
     )
     print(f"wrote {path.relative_to(REPO)}")
 
 
-def page_name(variant: str, gpu: bool, grasp: bool) -> str:
+def page_name(variant: str, gpu: bool, grasp: bool, njmax: int | None = None) -> str:
     """docs/results/batch.md for the default run (svh_right, CPU, random targets); the others beside it."""
     return (
         "batch"
         + ("" if variant == "svh_right" else f"_{variant}")
         + ("_gpu" if gpu else "")
         + ("_grasp" if grasp else "")
+        + ("" if njmax is None else f"_njmax{njmax}")
     )
 
 

@@ -17,9 +17,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -45,15 +43,14 @@ if OWN_RUN:
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     if OWN_RUN and not hasattr(config, "workerinput"):  # the controller (or a run without xdist) made it
-        stop_prefetched_build()
+        from .support import stop_build
+
+        stop_build(Path(os.environ["SVHDESC_TEST_RUN"]))
         shutil.rmtree(os.environ["SVHDESC_TEST_RUN"], ignore_errors=True)
 
 
 # The session build takes about 45 s of one core. Started in the background once the run is known to need it,
 # it overlaps the tests that come first instead of keeping a worker waiting on built()'s lock for it.
-PREFETCH = "build.prefetch"  # in the run's folder: the background build's process id, written once
-
-
 def _needs_session_build(item: pytest.Item) -> bool:
     import tests.support
 
@@ -65,34 +62,10 @@ def _needs_session_build(item: pytest.Item) -> bool:
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
-    run = Path(os.environ["SVHDESC_TEST_RUN"])
-    if (run / "build.done").exists() or not any(_needs_session_build(item) for item in session.items):
-        return
-    try:  # the first process here starts it; xdist's other workers find the file
-        descriptor = os.open(run / PREFETCH, os.O_WRONLY | os.O_CREAT | os.O_EXCL)
-    except FileExistsError:
-        return
-    with open(run / "build.prefetch.log", "wb") as log:  # built() takes the lock first, so a test waits on it
-        process = subprocess.Popen(
-            [sys.executable, "-c", "from tests.support import built; built()"],
-            cwd=REPO,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
-        )
-    os.write(descriptor, str(process.pid).encode())
-    os.close(descriptor)
+    from .support import start_build
 
-
-def stop_prefetched_build() -> None:
-    """A run that ends before its background build (a test selection, an interrupt) takes it down."""
-    run = Path(os.environ["SVHDESC_TEST_RUN"])
-    if (run / "build.done").exists():  # it has finished, or is about to: its id may soon be another's
-        return
-    try:
-        os.killpg(int((run / PREFETCH).read_text()), signal.SIGKILL)
-    except (OSError, ValueError):  # none started, or it has ended
-        pass
+    if any(_needs_session_build(item) for item in session.items):
+        start_build(Path(os.environ["SVHDESC_TEST_RUN"]))
 
 
 # Modules (paths under tests/) whose tests take tens of seconds each: engines, grasps held for seconds, Warp, full

@@ -5,6 +5,7 @@ from __future__ import annotations
 import fcntl
 import functools
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -79,9 +80,10 @@ def fails_cleanly(out: Path | None, *args: str, match: str) -> str:
 @functools.cache
 def built() -> Path:
     """A fresh build of every variant (not the committed one), shared by the whole run: the first xdist worker to
-    ask builds it under the run's folder (tests/conftest.py), the others wait for it and read it."""
+    ask (or ``start_build``'s background process) builds it under the run's folder (tests/conftest.py), the others
+    wait for it and read it."""
     run = Path(os.environ.get("SVHDESC_TEST_RUN") or tempfile.mkdtemp(prefix="svhdesc-test-run-"))
-    out, done = run / "build", run / "build.done"
+    out, done = run / "build", run / BUILD_DONE
     with open(run / "build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
@@ -89,6 +91,41 @@ def built() -> Path:
             assert result.returncode == 0, result.stderr
             done.touch()
     return out
+
+
+BUILD_DONE = "build.done"
+BUILD_STARTED = "build.started"  # the background build's process id, written once
+
+
+def start_build(run: Path) -> None:
+    """``built()`` in a background process, once per run: it takes the lock first, so a test that needs the build
+    waits on it instead of starting its own."""
+    if (run / BUILD_DONE).exists():
+        return
+    try:  # the first process here starts it; xdist's other workers find the file
+        descriptor = os.open(run / BUILD_STARTED, os.O_WRONLY | os.O_CREAT | os.O_EXCL)
+    except FileExistsError:
+        return
+    with open(run / "build.started.log", "wb") as log:
+        process = subprocess.Popen(
+            [sys.executable, "-c", "from tests.support import built; built()"],
+            cwd=REPO,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+    os.write(descriptor, str(process.pid).encode())
+    os.close(descriptor)
+
+
+def stop_build(run: Path) -> None:
+    """A run that ends before its background build (a test selection, an interrupt) takes it down."""
+    if (run / BUILD_DONE).exists():  # it has finished, or is about to: its id may soon be another's
+        return
+    try:
+        os.killpg(int((run / BUILD_STARTED).read_text()), signal.SIGKILL)
+    except (OSError, ValueError):  # none started, or it has ended
+        pass
 
 
 def compiled_variant(config: Path, cache: Path) -> tuple[Any, Any]:
