@@ -20,6 +20,7 @@ import sys
 import threading
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -185,15 +186,25 @@ class Client:
         goal.goal_time_tolerance = duration(goal_time)
         return goal
 
+    def asked(self, request: Callable[[], Any]) -> Any:
+        """The future that ``request`` (an ActionClient's ``*_async`` call) returns, called on the executor's thread.
+        Jazzy's ActionClient files a request's future only after sending it; a reply that the executor takes in
+        between is dropped ("Ignoring unexpected goal response") and the future never ends. Sent from the executor's
+        own thread, no reply can come in between."""
+        return wait(self.executor.create_task(request))
+
     def send(self, controller: str, goal: Any) -> Any:
         """The goal handle (accepted or not)."""
-        return wait(self.actions[controller].send_goal_async(goal))
+        return wait(self.asked(lambda: self.actions[controller].send_goal_async(goal)))
+
+    def result(self, handle: Any) -> Any:
+        return self.asked(handle.get_result_async)
 
     def run(self, controller: str, goal: Any) -> dict[str, Any]:
         handle = self.send(controller, goal)
         if not handle.accepted:
             return {"accepted": False}
-        answer = wait(handle.get_result_async())
+        answer = wait(self.result(handle))
         return {
             "accepted": True,
             "status": STATUS.get(answer.status, answer.status),
@@ -313,15 +324,15 @@ def malformed(c: Client) -> dict[str, bool]:
 def preempt_and_cancel(c: Client) -> dict[str, Any]:
     joints = c.trajectory[c.hand]
     first = c.send(c.hand, c.goal(joints, [(3.0, c.target(0.3, joints))]))
-    first_result = first.get_result_async()
+    first_result = c.result(first)
     c.sleep(0.3)
     second = c.run(c.hand, c.goal(joints, [(1.0, c.target(0.05, joints))]))
     ended = wait(first_result)
     target, start = c.target(0.3, joints), c.latest() + 0.5
     third = c.send(c.hand, c.goal(joints, [(3.0, target)], stamp=time_of(start)))
     c.at(start + 0.5)
-    cancel = wait(third.cancel_goal_async())
-    canceled = wait(third.get_result_async())
+    cancel = wait(c.asked(third.cancel_goal_async))
+    canceled = wait(c.result(third))
     before = c.at(start + 1.5)  # uncanceled, the fingers would move on until start + 3 s
     after = c.at(start + 2.0)
     return {
@@ -350,7 +361,7 @@ def burst(c: Client, count: int = 1000) -> dict[str, Any]:
     bad = c.goal([*joints[:-1], "no_such_joint"], [(1.0, c.target(0.1, joints))])
     accepted, window = 0, 10  # at most the goal service's QoS depth (10) in flight: DDS drops what overflows it
     for _ in range(count // window):
-        futures = [c.actions[c.hand].send_goal_async(bad) for _ in range(window)]
+        futures = [c.asked(lambda: c.actions[c.hand].send_goal_async(bad)) for _ in range(window)]
         accepted += sum(wait(f).accepted for f in futures)
     start = c.now()
     after = c.run(c.hand, c.goal(joints, [(0.5, c.target(0.1, joints))]))
