@@ -14,6 +14,7 @@ import trimesh
 from lxml import etree
 
 from svhdesc.core import exact
+from svhdesc.core.source.winding import fix_winding
 
 MAX_RAW = 1e6  # largest plausible number in a mesh file (a coordinate of 1 km in millimetres)
 MAX_METRES = 1e3  # largest plausible coordinate in metres
@@ -117,7 +118,7 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
     if np.prod(s) < 0:
         faces = faces[:, ::-1]
     mesh = trimesh.Trimesh(vertices=np.asarray(mesh.vertices) * s, faces=faces, process=False)
-    trimesh.repair.fix_winding(mesh)
+    fix_winding(mesh)  # trimesh's result, without its per-pair Python (winding.py)
     if mesh.is_watertight:
         trimesh.repair.fix_inversion(mesh, multibody=True)
     mesh.metadata["file_name"] = path.name
