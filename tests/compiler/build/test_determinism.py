@@ -135,6 +135,9 @@ def _author(out: Path, env: dict[str, str]) -> None:
     assert result.returncode == 0, result.stderr
 
 
+# Each run of the authoring script below takes about 7 s of a core: in the full suite, not the fast set, which keeps
+# one plain run (tests/core/source/test_meshes.py) and the emulated CPUs' own difference.
+@pytest.mark.slow
 def test_mesh_authoring_agrees_with_the_committed_meshes_when_perturbed(tmp_path: Path) -> None:
     _author(tmp_path, PERTURB)
     committed = sorted((REPO / "meshes").rglob("*.dae"))
@@ -192,6 +195,7 @@ def test_the_emulated_cpus_compute_differently() -> None:
     assert v3_in_v2 == "False" and v4_in_v3 == "False"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cpu", OTHER_CPUS)
 def test_mesh_authoring_writes_the_committed_bytes_on_other_cpus(tmp_path: Path, cpu: str) -> None:
     _author(tmp_path, _emulating(cpu))
