@@ -115,7 +115,13 @@ class Subscriber:
                 time_from_start=Duration(sec=whole, nanosec=int(round((goal_spec["seconds"] - whole) * 1e9))),
             )
             goal.trajectory.points.append(point)
-            future = client.send_goal_async(goal, feedback_callback=lambda _, n=name: self._on_feedback(n))
+            # Sent from the executor's thread: Jazzy's ActionClient files the request's future only after sending
+            # it, and drops a reply that the executor takes in between.
+            sent = self.executor.create_task(
+                lambda c=client, g=goal, n=name: c.send_goal_async(g, feedback_callback=lambda _: self._on_feedback(n))
+            )
+            wait_until(sent.done, wall, f"the {name} goal sent")
+            future = sent.result()
             wait_until(future.done, wall, f"answer to the {name} goal")
             if not future.result().accepted:
                 raise RuntimeError(f"{name} rejected the benchmark's goal")
