@@ -91,6 +91,15 @@ def _read(path: Path) -> trimesh.Trimesh:
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
 
 
+def welded(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """In place, and returned: vertices within ~1e-6 m merged, degenerate and duplicate faces dropped."""
+    mesh.merge_vertices(digits_vertex=MERGE_DIGITS, merge_tex=True, merge_norm=True)
+    mesh.update_faces(mesh.nondegenerate_faces())
+    mesh.update_faces(mesh.unique_faces())
+    mesh.remove_unreferenced_vertices()
+    return mesh
+
+
 def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> trimesh.Trimesh:
     """Load a .dae/.stl/.obj as one welded triangle mesh in metres, with ``scale`` baked in.
 
@@ -104,11 +113,7 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
     s = np.asarray(scale, dtype=np.float64)
     if s.shape != (3,) or not np.all(np.isfinite(s)) or np.any(s == 0):
         raise MeshError(f"{path}: bad scale {tuple(scale)}")
-    mesh = _read(path)
-    mesh.merge_vertices(digits_vertex=MERGE_DIGITS, merge_tex=True, merge_norm=True)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
-    mesh.remove_unreferenced_vertices()
+    mesh = welded(_read(path))
     if len(mesh.faces) == 0:
         raise MeshError(f"{path}: mesh has only degenerate triangles")
     spread = np.linalg.svd(np.asarray(mesh.vertices) - np.asarray(mesh.vertices).mean(axis=0), compute_uv=False)

@@ -49,7 +49,7 @@ def fix_winding(mesh: trimesh.Trimesh) -> None:
         return
     parents, children = np.array(walk, dtype=np.int64).T
     shared, same = _shared_edges(faces[parents], faces[children])
-    flip = [False] * len(faces)
+    flip = [False] * len(faces)  # a child sharing no edge with its parent stays as it is, as in trimesh
     for parent, child, count, runs_same in zip(parents.tolist(), children.tolist(), shared.tolist(), same.tolist()):
         if count == 1:  # every pair of distinct triangles: parents come first in a breadth-first walk
             flip[child] = flip[parent] != runs_same

@@ -22,11 +22,7 @@ VENDOR_H10 = REPO.parent / "shared" / "vendor" / "schunk_svh_driver" / "descript
 
 def _welded(path: Path) -> trimesh.Trimesh:
     """The mesh as load_mesh has it just before its winding is fixed."""
-    mesh = meshes._read(path)
-    mesh.merge_vertices(digits_vertex=meshes.MERGE_DIGITS, merge_tex=True, merge_norm=True)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
-    mesh.remove_unreferenced_vertices()
+    mesh = meshes.welded(meshes._read(path))
     return trimesh.Trimesh(vertices=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces), process=False)
 
 
