@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -38,8 +39,8 @@ from results import cpu_model, write  # noqa: E402
 CPU_NOTE = [
     "On a CPU, Warp is meant for GPUs, not to beat one MuJoCo C thread (the ratio column; all figures move with the",
     "other jobs on a shared machine). A GPU's figures: `python benchmarks/batch_bench.py --device cuda` (nworld 1 to",
-    "4096, the step replayed as a captured CUDA graph) writes `docs/results/batch_gpu.md`. The goal of 1,000,000 hand",
-    "steps/s on one H100 ([speed.md](/docs/speed.md)) is measured only there.",
+    "4096, the step replayed as a captured CUDA graph) writes `docs/results/batch_gpu_<model>.md`. The goal of",
+    "1,000,000 hand steps/s on one H100 ([speed.md](/docs/speed.md)) is measured only there.",
 ]
 
 
@@ -180,22 +181,28 @@ def main() -> None:
     else:
         lines += ["", *CPU_NOTE]
     path = write(
-        page_name(args.variant, gpu, args.grasp, args.njmax),
+        page_name(args.variant, name if gpu else None, args.grasp, args.njmax),
         f"Batch (MuJoCo Warp): {args.variant} on {args.device}",
         lines,
     )
     print(f"wrote {path.relative_to(REPO)}")
 
 
-def page_name(variant: str, gpu: bool, grasp: bool, njmax: int | None = None) -> str:
-    """docs/results/batch.md for the default run (svh_right, CPU, random targets); the others beside it."""
+def page_name(variant: str, gpu: str | None, grasp: bool, njmax: int | None = None) -> str:
+    """docs/results/batch.md for the default run (svh_right, CPU, random targets); the others beside it, a GPU's
+    named by its model (``NVIDIA H100 80GB HBM3`` -> ``_gpu_h100``), so each card's rows keep their own page."""
     return (
         "batch"
         + ("" if variant == "svh_right" else f"_{variant}")
-        + ("_gpu" if gpu else "")
+        + ("" if gpu is None else gpu_tag(gpu))
         + ("_grasp" if grasp else "")
         + ("" if njmax is None else f"_njmax{njmax}")
     )
+
+
+def gpu_tag(name: str) -> str:
+    model = re.search(r"\b[A-Z]+\d+\w*\b", name)
+    return "_gpu" + (f"_{model.group(0).lower()}" if model else "")
 
 
 if __name__ == "__main__":
