@@ -1,7 +1,7 @@
 """The subscriber side of benchmarks/sim_bench_ros2.py: an rclpy process of its own (run in .venv-ros2, inside the
 benchmark's private network namespace) that subscribes every topic the ROS 2 node publishes and times its /clock.
 
-    python ros2_bench_subscriber.py SPEC.json
+    python ros2_bench_subscriber.py SPEC.json [NODE_PID]
 
 SPEC: {"node": the node's name, "window": wall s timed, "warmup": wall s before it, "wall": the most any wait
 takes, "goals": {controller: {"joints": [ROS 2 names], "positions": [...], "seconds": s}}}.
@@ -9,7 +9,8 @@ takes, "goals": {controller: {"joints": [ROS 2 names], "positions": [...], "seco
 Every topic the node publishes gets a ``raw=True`` subscription (nothing deserialised), but /clock, read to measure
 simulated time, and the action topics, which the ActionClients subscribe themselves (one goal per trajectory
 controller keeps their feedback flowing). Prints one JSON line: simulated seconds per wall second over the window,
-and the messages received per topic meanwhile. Imports nothing of svhdesc.
+and the messages received per topic meanwhile; with NODE_PID, the CPU time of the node's threads over the window
+(Linux's /proc schedstat: time on a core, time runnable but waiting for one). Imports nothing of svhdesc.
 """
 
 from __future__ import annotations
@@ -38,6 +39,18 @@ def message_class(type_name: str) -> Any:
     """``pkg/msg/Type`` as its Python class."""
     package, kind, name = type_name.split("/")
     return getattr(importlib.import_module(f"{package}.{kind}"), name)
+
+
+def node_threads(pid: int | None) -> dict[int, tuple[int, int]]:
+    """Nanoseconds each thread of process ``pid`` has run on a core and waited runnable for one."""
+    found: dict[int, tuple[int, int]] = {}
+    for task in Path(f"/proc/{pid}/task").glob("*") if pid else []:
+        try:
+            run, waited, _ = (task / "schedstat").read_text().split()
+        except (OSError, ValueError):  # the thread ended meanwhile
+            continue
+        found[int(task.name)] = (int(run), int(waited))
+    return found
 
 
 def wait_until(condition: Any, wall: float, what: str) -> None:
@@ -140,10 +153,19 @@ class Subscriber:
         self.subscribe_all()  # anything that appeared since
         self.counts = dict.fromkeys(self.subscriptions, 0)
         self.feedback = dict.fromkeys(self.feedback, 0)
-        sim0, wall0 = self.clock[-1], time.perf_counter()
+        pid = spec.get("pid")
+        threads0, sim0, wall0 = node_threads(pid), self.clock[-1], time.perf_counter()
         time.sleep(spec["window"])
-        sim1, wall1 = self.clock[-1], time.perf_counter()
+        sim1, wall1, threads1 = self.clock[-1], time.perf_counter(), node_threads(pid)
+        used = {tid: [(b - a) / 1e9 for a, b in zip(threads0.get(tid, (0, 0)), ns)] for tid, ns in threads1.items()}
         return {
+            "cpu": {  # per simulated second: the simulation (main) thread's time on a core and waiting for one; all
+                "main": used.get(pid, [0.0, 0.0])[0] / (sim1 - sim0),
+                "main_waiting": used.get(pid, [0.0, 0.0])[1] / (sim1 - sim0),
+                "all": sum(run for run, _ in used.values()) / (sim1 - sim0),
+            }
+            if pid
+            else None,
             "rate": (sim1 - sim0) / (wall1 - wall0),
             "simulated": sim1 - sim0,
             "wall": wall1 - wall0,
@@ -155,6 +177,7 @@ class Subscriber:
 
 def main() -> None:
     spec = json.loads(Path(sys.argv[1]).read_text())
+    spec["pid"] = int(sys.argv[2]) if len(sys.argv) > 2 else None
     rclpy.init(args=["svhdesc_bench_subscriber"])
     try:
         report = Subscriber(spec).measure()

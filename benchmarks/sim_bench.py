@@ -80,6 +80,7 @@ def runtime_rate(variant: str, seconds: float) -> float:
 class Run:
     rate: float  # simulated s per wall s
     main_cpu: float  # CPU s of the node's simulation thread per simulated s
+    main_waiting: float  # s the simulation thread was runnable but waited for a core, per simulated s
     all_cpu: float  # CPU s of all the node's threads per simulated s
 
 
@@ -134,21 +135,21 @@ def node_rate(variant: str, window: float, rospy: object, raw: bool = True) -> R
         if sink is not None:
             sink.close()
     simulated = sim1 - sim0
-    used = {tid: cpu1[tid] - cpu0.get(tid, 0.0) for tid in cpu1}
-    main_thread = used.get(process.pid, 0.0)
-    return Run(simulated / (wall1 - wall0), main_thread / simulated, sum(used.values()) / simulated)
+    used = {tid: [b - a for a, b in zip(cpu0.get(tid, (0.0, 0.0)), times)] for tid, times in cpu1.items()}
+    main_thread, main_waiting = used.get(process.pid, [0.0, 0.0])
+    run = sum(cpu for cpu, _ in used.values())
+    return Run(simulated / (wall1 - wall0), main_thread / simulated, main_waiting / simulated, run / simulated)
 
 
-def thread_cpu(pid: int) -> dict[int, float]:
-    """CPU seconds (user + system) each thread of process ``pid`` has used (Linux /proc)."""
-    tick = os.sysconf("SC_CLK_TCK")
+def thread_cpu(pid: int) -> dict[int, tuple[float, float]]:
+    """Seconds each thread of process ``pid`` has run on a core and waited runnable for one (/proc schedstat)."""
     used = {}
     for task in Path(f"/proc/{pid}/task").iterdir():
         try:
-            fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:  # the thread ended meanwhile
+            run, waited, _ = (task / "schedstat").read_text().split()
+        except (OSError, ValueError):  # the thread ended meanwhile
             continue
-        used[int(task.name)] = (int(fields[11]) + int(fields[12])) / tick
+        used[int(task.name)] = (int(run) / 1e9, int(waited) / 1e9)
     return used
 
 
@@ -196,7 +197,8 @@ def main() -> None:
             print(
                 f"{variant:<16} {bare:6.1f}x {alone:7.1f}x {node.rate:6.1f}x {node.rate / bare:10.2f}"
                 f" {with_rospy.rate / bare:11.2f}   CPU s per simulated s: bare {bare_cpu:.3f},"
-                f" node's simulation thread {node.main_cpu:.3f}, all its threads {node.all_cpu:.3f}"
+                f" node's simulation thread {node.main_cpu:.3f} (waiting for a core {node.main_waiting:.3f}),"
+                f" all its threads {node.all_cpu:.3f}"
             )
     met = all(node.rate / bare >= GOAL for _, bare, _, _, node, _ in rows)
     body = [
@@ -213,16 +215,17 @@ def main() -> None:
         "  takes little of the two cores. This is the figure the goal is measured on.",
         "- **with rospy subscribers**: the same with rospy `AnyMsg` subscribers (a Python thread and callback per",
         "  message in the benchmark's process, on the same two cores), as node / bare.",
-        "- **CPU per simulated second** (from /proc, robust to other load): bare `mj_step`; the node's simulation",
-        "  thread (physics, controllers, reading the state); all the node's threads (with publishing and rospy's",
-        "  own). bare / simulation thread bounds node / bare on a machine with a core free for the rest.",
+        "- **CPU per simulated second** (Linux's /proc schedstat): bare `mj_step`; the node's simulation thread",
+        "  (physics, controllers, reading the state), in brackets the time it was runnable but waited for a core;",
+        "  all the node's threads (with publishing and rospy's own). bare / simulation thread bounds node / bare on",
+        "  a machine with a core free for the rest.",
         "",
         "| variant | bare `mj_step` | runtime, no ROS | ROS node | node / bare | with rospy subscribers "
-        "| CPU s / simulated s: bare, simulation thread, all threads |",
+        "| CPU s / simulated s: bare, simulation thread (waiting for a core), all threads |",
         "|---|---|---|---|---|---|---|",
         *[
             f"| `{v}` | {b:.1f}x | {a:.1f}x | {n.rate:.1f}x | {n.rate / b:.2f} | {r.rate / b:.2f} "
-            f"| {c:.3f}, {n.main_cpu:.3f}, {n.all_cpu:.3f} |"
+            f"| {c:.3f}, {n.main_cpu:.3f} ({n.main_waiting:.3f}), {n.all_cpu:.3f} |"
             for v, b, c, a, n, r in rows
         ],
         "",

@@ -79,11 +79,12 @@ def arguments(argv: list[str]) -> tuple[float, list[str]]:
     return window, variants
 
 
-def bare_rate(variant: str, seconds: float) -> float:
-    """sim_bench.py's reference: bare mj_step on the node's physics (the goals' motion, 10 steps a call)."""
+def bare_rate(variant: str, seconds: float) -> tuple[float, float]:
+    """sim_bench.py's reference: bare mj_step on the node's physics (the goals' motion, 10 steps a call); the
+    real-time factor and the CPU seconds per simulated second."""
     from sim_bench import bare_rate as bare
 
-    return bare(variant, seconds)[0]
+    return bare(variant, seconds)
 
 
 def goals(variant: str) -> dict[str, dict[str, Any]]:
@@ -115,7 +116,7 @@ ip link set lo up
 {py} -m svhdesc.cli sim {shlex.quote(variant)} --ros2 --as-fast > {log} 2>&1 &
 node=$!
 trap 'kill -KILL $node 2>/dev/null' EXIT
-{py} {shlex.quote(str(SUBSCRIBER))} {shlex.quote(str(work / "spec.json"))}
+{py} {shlex.quote(str(SUBSCRIBER))} {shlex.quote(str(work / "spec.json"))} $node
 kill -INT $node 2>/dev/null
 for _ in $(seq 50); do kill -0 $node 2>/dev/null || break; sleep 0.1; done
 """
@@ -154,6 +155,12 @@ def received(report: dict[str, Any]) -> str:
     return f"{sum(report['messages'].values()) / wall:.0f} (+ {sum(report['feedback'].values()) / wall:.0f} feedback)"
 
 
+def cpu(report: dict[str, Any]) -> str:
+    """Bare mj_step's CPU per simulated second; the node's simulation thread's, its wait for a core, all threads'."""
+    used = report["cpu"]
+    return f"{report['bare_cpu']:.3f}, {used['main']:.3f} ({used['main_waiting']:.3f}), {used['all']:.3f}"
+
+
 def page(window: float, rows: list[tuple[str, float, float, dict[str, Any]]], met: bool) -> list[str]:
     topics = sorted({t for *_, r in rows for t in r["messages"]})
     return [
@@ -165,9 +172,17 @@ def page(window: float, rows: list[tuple[str, float, float, dict[str, Any]]], me
         f"Node and subscriber share a private network namespace; the node is timed over {window:g} s of wall time.",
         "Absolute figures move with the machine's load (see the header); the ratio less so.",
         "",
-        "| variant | bare `mj_step` | ROS 2 node | node / bare | messages received per wall s |",
-        "|---|---|---|---|---|",
-        *[f"| `{v}` | {b:.1f}x | {r['rate']:.1f}x | {r['rate'] / b:.2f} | {received(r)} |" for v, b, _, r in rows],
+        "**CPU per simulated second** (Linux's /proc schedstat, over the window): bare `mj_step`; the node's",
+        "simulation thread (physics, controllers, reading the state), in brackets the time it was runnable but",
+        "waited for a core; all the node's threads (with the publishing thread and DDS's).",
+        "",
+        "| variant | bare `mj_step` | ROS 2 node | node / bare | messages received per wall s "
+        "| CPU s / simulated s: bare, simulation thread (waiting for a core), all threads |",
+        "|---|---|---|---|---|---|",
+        *[
+            f"| `{v}` | {b:.1f}x | {r['rate']:.1f}x | {r['rate'] / b:.2f} | {received(r)} | {cpu(r)} |"
+            for v, b, _, r in rows
+        ],
         "",
         "Topics subscribed: " + ", ".join(f"`{t}`" for t in topics) + "; the action topics through the ActionClients.",
         "",
@@ -184,7 +199,8 @@ def main() -> None:
     for variant in variants:
         before = bare_rate(variant, 10.0)
         report = node_rate(variant, window, python, unshare)
-        bare = 0.5 * (before + bare_rate(variant, 10.0))
+        after = bare_rate(variant, 10.0)
+        bare, report["bare_cpu"] = 0.5 * (before[0] + after[0]), 0.5 * (before[1] + after[1])
         node = report["rate"]
         rows.append((variant, bare, node, report))
         rate = sum(report["messages"].values()) / report["wall"]
@@ -192,6 +208,7 @@ def main() -> None:
         per_topic = {t: round(n / report["wall"]) for t, n in report["messages"].items()}
         feedback = {c: round(n / report["wall"]) for c, n in report["feedback"].items()}
         print(f"  received per wall s: {per_topic}; feedback per wall s: {feedback}")
+        print(f"  CPU s per simulated s: {cpu(report)}")
         if report["unsubscribed"]:
             print(f"  not subscribed (type not importable): {report['unsubscribed']}")
     met = all(node / bare >= GOAL for _, bare, node, _ in rows)
