@@ -43,7 +43,7 @@ def rss_kb(pid: int) -> int:
 
 
 def abuse(node: dict[str, Any], check: str) -> dict[str, Any]:
-    result = subprocess.run([sys.executable, str(ABUSE), check], capture_output=True, text=True, timeout=240)
+    result = subprocess.run([sys.executable, str(ABUSE), check], capture_output=True, text=True, timeout=360)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
     assert node["process"].poll() is None, "the node died"
     return json.loads(result.stdout.strip().splitlines()[-1])
