@@ -223,8 +223,11 @@ def flood(node: dict[str, Any]) -> None:
     publisher = rospy.Publisher(f"/{HAND}/command", JointTrajectory, queue_size=1)
     wait_for(lambda: publisher.get_num_connections() > 0, 20, "the command subscriber")
     states = node["states"]
-    before = len(states)
-    begin = time.monotonic()
+    # /joint_states' rate on this machine, under its load of the moment, without the flood: the reference below.
+    before, begin = len(states), time.monotonic()
+    time.sleep(5.0)
+    calm = (len(states) - before) / (time.monotonic() - begin)
+    before, begin = len(states), time.monotonic()
     sent = 0
     while time.monotonic() - begin < 10.0:
         publisher.publish(_random_trajectory(rng, rospy))
@@ -232,10 +235,12 @@ def flood(node: dict[str, Any]) -> None:
         time.sleep(max(0.0, begin + sent / 500.0 - time.monotonic()))
     elapsed = time.monotonic() - begin
     publisher.unregister()
-    node["report"].update(rate=sent / elapsed, joint_states=(len(states) - before) / elapsed)
+    flooded = (len(states) - before) / elapsed
+    node["report"].update(rate=sent / elapsed, joint_states=flooded, calm=calm)
     assert sent / elapsed > 400, f"only {sent / elapsed:.0f} Hz"
-    # /joint_states kept flowing at its 50 Hz (of real-time-paced simulated time) through the flood.
-    assert len(states) - before > 0.6 * 50 * elapsed, len(states) - before
+    # /joint_states kept flowing through the flood: at its 50 Hz of real-time-paced simulated time on an idle
+    # machine, and at least 0.6 of its rate just before the flood on a loaded one.
+    assert flooded > 0.6 * min(50.0, calm), (flooded, calm)
     _succeeds(node, 0.2)
 
 
