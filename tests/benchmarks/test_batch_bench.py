@@ -5,23 +5,11 @@ Seeded fault: ``gpu_tag`` returning ``"_gpu"`` alone -> the H100 and H200 pages 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
-REPO = Path(__file__).resolve().parents[2]
-
-
-def load_script():  # noqa: ANN201 - a script module, not a package
-    spec = importlib.util.spec_from_file_location("batch_bench", REPO / "benchmarks" / "batch_bench.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("batch_bench", module)
-    spec.loader.exec_module(module)
-    return module
+from tests.benchmarks.scripts import REPO, load
 
 
 def test_each_gpu_model_gets_its_own_page() -> None:
-    bench = load_script()
+    bench = load("batch_bench")
     assert bench.page_name("svh_right", None, False) == "batch"  # the CPU default page
     h100 = bench.page_name("svh_right", "NVIDIA H100 80GB HBM3", False)
     h200 = bench.page_name("svh_right", "NVIDIA H200", False)

@@ -9,27 +9,16 @@ test turns the suite page's row into a failure with its count (test_suite_time_c
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import subprocess
 import sys
 from pathlib import Path
-from types import ModuleType
 
-REPO = Path(__file__).resolve().parents[2]
-BENCHMARKS = REPO / "benchmarks"
+from tests.benchmarks.scripts import BENCHMARKS, REPO, load
+
 RESULTS = REPO / "docs" / "results"
 COMMAND = re.compile(r"- command: `python ((?:benchmarks|examples)/[\w-]+\.py)( [^`]*)?`")
 DATE = re.compile(r"- date: (\d{4}-\d\d-\d\d \d\d:\d\d UTC|not recorded\b.*)$")
-
-
-def load(name: str) -> ModuleType:
-    """A script of benchmarks/ as a module (its folder on the path: the scripts import results.py)."""
-    sys.path.insert(0, str(BENCHMARKS))
-    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCHMARKS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def header_problems(page: Path, benchmarks: Path = BENCHMARKS) -> list[str]:

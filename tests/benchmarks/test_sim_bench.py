@@ -5,23 +5,15 @@ Seeded fault: the two fields swapped -> the busy thread's time on a core barely 
 
 from __future__ import annotations
 
-import importlib.util
 import os
-import sys
 import threading
 import time
 
-import pytest
-
-from tests.support import REPO
+from tests.benchmarks.scripts import load
 
 
-def test_thread_cpu_counts_a_busy_threads_time_on_a_core(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.syspath_prepend(str(REPO / "benchmarks"))  # its own imports (results, tcpros_sink)
-    spec = importlib.util.spec_from_file_location("sim_bench", REPO / "benchmarks" / "sim_bench.py")
-    bench = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("sim_bench", bench)  # its dataclasses look their module up there
-    spec.loader.exec_module(bench)
+def test_thread_cpu_counts_a_busy_threads_time_on_a_core() -> None:
+    bench = load("sim_bench")
     me = threading.get_native_id()
     before = bench.thread_cpu(os.getpid())[me]
     start = time.thread_time()
