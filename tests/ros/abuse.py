@@ -224,6 +224,8 @@ def flood(node: dict[str, Any]) -> None:
     publisher = rospy.Publisher(f"/{HAND}/command", JointTrajectory, queue_size=1)
     wait_for(lambda: publisher.get_num_connections() > 0, 20, "the command subscriber")
     states = node["states"]
+    # Made beforehand, so that the flood's own CPU here is the sending, not the drawing.
+    pool = [_random_trajectory(rng, rospy) for _ in range(250)]
     # /joint_states' rate on this machine, under its load of the moment, without the flood: the reference below.
     before, begin = len(states), time.monotonic()
     time.sleep(5.0)
@@ -231,7 +233,7 @@ def flood(node: dict[str, Any]) -> None:
     before, begin = len(states), time.monotonic()
     sent = 0
     while time.monotonic() - begin < 10.0:
-        publisher.publish(_random_trajectory(rng, rospy))
+        publisher.publish(pool[sent % len(pool)])
         sent += 1
         time.sleep(max(0.0, begin + sent / 500.0 - time.monotonic()))
     elapsed = time.monotonic() - begin
@@ -239,9 +241,11 @@ def flood(node: dict[str, Any]) -> None:
     flooded = (len(states) - before) / elapsed
     node["report"].update(rate=sent / elapsed, joint_states=flooded, calm=calm)
     assert sent / elapsed > 400, f"only {sent / elapsed:.0f} Hz"
-    # /joint_states kept flowing through the flood: at its 50 Hz of real-time-paced simulated time on an idle
-    # machine, and at least 0.6 of its rate just before the flood on a loaded one.
-    assert flooded > 0.6 * min(50.0, calm), (flooded, calm)
+    # /joint_states kept flowing through the flood: at least 0.4 of its rate just before it (or of its 50 Hz). The
+    # flood itself takes CPU (500 messages a second sent here, received and deserialised in the node): with two
+    # busy loops on the 2 cores as well, the node fell to 0.64 of its pace (0.48 while this loop still drew each
+    # message). A node that stalls on commands falls far lower (20 ms of work per command: 2.9 Hz of 50).
+    assert flooded > 0.4 * min(50.0, calm), (flooded, calm)
     _succeeds(node, 0.2)
 
 

@@ -90,7 +90,7 @@ def test_a_burst_of_1000_goals_does_not_freeze_the_clock(node: dict[str, Any]) -
 def test_command_flooded_at_500_hz_for_10_s(node: dict[str, Any]) -> None:
     report = abuse(node, "flood")
     # of its 50 Hz (or of its rate just before, on a loaded machine), through the flood
-    assert report["rate"] > 400 and report["joint_states"] > 0.6 * min(50.0, report["calm"])
+    assert report["rate"] > 400 and report["joint_states"] > 0.4 * min(50.0, report["calm"])
 
 
 def test_a_client_killed_mid_goal(node: dict[str, Any]) -> None:
