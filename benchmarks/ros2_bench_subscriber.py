@@ -30,6 +30,7 @@ from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rosgraph_msgs.msg import Clock
+from schedstat import thread_cpu  # this script's folder: benchmarks/
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 ACTION_TOPIC = "/_action/"  # rcl_action's hidden topics (feedback, status): the ActionClients' own
@@ -39,18 +40,6 @@ def message_class(type_name: str) -> Any:
     """``pkg/msg/Type`` as its Python class."""
     package, kind, name = type_name.split("/")
     return getattr(importlib.import_module(f"{package}.{kind}"), name)
-
-
-def node_threads(pid: int | None) -> dict[int, tuple[int, int]]:
-    """Nanoseconds each thread of process ``pid`` has run on a core and waited runnable for one."""
-    found: dict[int, tuple[int, int]] = {}
-    for task in Path(f"/proc/{pid}/task").glob("*") if pid else []:
-        try:
-            run, waited, _ = (task / "schedstat").read_text().split()
-        except (OSError, ValueError):  # the thread ended meanwhile
-            continue
-        found[int(task.name)] = (int(run), int(waited))
-    return found
 
 
 def wait_until(condition: Any, wall: float, what: str) -> None:
@@ -154,10 +143,10 @@ class Subscriber:
         self.counts = dict.fromkeys(self.subscriptions, 0)
         self.feedback = dict.fromkeys(self.feedback, 0)
         pid = spec.get("pid")
-        threads0, sim0, wall0 = node_threads(pid), self.clock[-1], time.perf_counter()
+        threads0, sim0, wall0 = (thread_cpu(pid) if pid else {}), self.clock[-1], time.perf_counter()
         time.sleep(spec["window"])
-        sim1, wall1, threads1 = self.clock[-1], time.perf_counter(), node_threads(pid)
-        used = {tid: [(b - a) / 1e9 for a, b in zip(threads0.get(tid, (0, 0)), ns)] for tid, ns in threads1.items()}
+        sim1, wall1, threads1 = self.clock[-1], time.perf_counter(), (thread_cpu(pid) if pid else {})
+        used = {tid: [b - a for a, b in zip(threads0.get(tid, (0.0, 0.0)), times)] for tid, times in threads1.items()}
         return {
             "cpu": {  # per simulated second: the simulation (main) thread's time on a core and waiting for one; all
                 "main": used.get(pid, [0.0, 0.0])[0] / (sim1 - sim0),

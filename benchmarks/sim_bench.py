@@ -32,6 +32,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from results import write  # noqa: E402
+from schedstat import thread_cpu  # noqa: E402
 from tcpros_sink import Sink  # noqa: E402
 
 import svhdesc  # noqa: E402
@@ -140,18 +141,6 @@ def node_rate(variant: str, window: float, rospy: object, raw: bool = True, only
     main_thread, main_waiting = used.get(process.pid, [0.0, 0.0])
     run = sum(cpu for cpu, _ in used.values())
     return Run(simulated / (wall1 - wall0), main_thread / simulated, main_waiting / simulated, run / simulated)
-
-
-def thread_cpu(pid: int) -> dict[int, tuple[float, float]]:
-    """Seconds each thread of process ``pid`` has run on a core and waited runnable for one (/proc schedstat)."""
-    used = {}
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            run, waited, _ = (task / "schedstat").read_text().split()
-        except (OSError, ValueError):  # the thread ended meanwhile
-            continue
-        used[int(task.name)] = (int(run) / 1e9, int(waited) / 1e9)
-    return used
 
 
 def send_goals(variant: str, info: object, test: dict[str, float], msgs: object, rospy: object) -> None:

@@ -33,6 +33,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from results import write  # noqa: E402
+from sim_bench import bare_rate  # noqa: E402  the same reference as the ROS 1 page
 
 import svhdesc  # noqa: E402
 from svhdesc.model import NODE_NAME, ros2_joint_name  # noqa: E402
@@ -77,14 +78,6 @@ def arguments(argv: list[str]) -> tuple[float, list[str]]:
     if unknown:
         raise BenchError(f"unknown variant(s) {', '.join(unknown)}; known: {', '.join(known)}")
     return window, variants
-
-
-def bare_rate(variant: str, seconds: float) -> tuple[float, float]:
-    """sim_bench.py's reference: bare mj_step on the node's physics (the goals' motion, 10 steps a call); the
-    real-time factor and the CPU seconds per simulated second."""
-    from sim_bench import bare_rate as bare
-
-    return bare(variant, seconds)
 
 
 def goals(variant: str) -> dict[str, dict[str, Any]]:
