@@ -697,7 +697,12 @@ def _inertia_setting(text: str) -> float | None:
     "--duration", type=float, default=None, help="Simulated seconds (default: 1 s; endless with --ros/--viewer)."
 )
 @click.option("--realtime/--as-fast", default=True, show_default=True, help="Pace to the wall clock, or run flat out.")
-@click.option("--track", multiple=True, metavar="BODY", help="Report (with --ros: publish) this body's pose.")
+@click.option(
+    "--track",
+    multiple=True,
+    metavar="BODY",
+    help="Report (with --ros or --ros2: publish on tracked/BODY) this body's pose.",
+)
 @click.option("--rate", type=float, default=50.0, show_default=True, help="With --ros: /joint_states rate in Hz.")
 @click.option(
     "--connector",
@@ -743,11 +748,11 @@ def sim_command(
         raise SvhdescError("--record needs --ros2 (it records the ROS 2 node's messages)")
     objects = load_obstacles(scene_file) if scene_file is not None else []
     if use_ros2:
-        if track or connector is not None:
-            raise SvhdescError("--track and --connector are ROS 1 (--ros) options; the ROS 2 node has neither")
+        if connector is not None:
+            raise SvhdescError("--connector is a ROS 1 (--ros) option; the ROS 2 node has no connector topics")
         from svhdesc.ros2.node import run_node as run_ros2_node
 
-        run_ros2_node(variant, keyframe, viewer, duration, realtime, list(ros_args), record, objects)
+        run_ros2_node(variant, keyframe, viewer, duration, realtime, list(ros_args), record, objects, track)
         return
     if use_ros:
         from svhdesc.ros1.node import run_node

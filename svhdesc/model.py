@@ -139,6 +139,20 @@ def ros2_hand_controller(prefix: str) -> str:
     return prefix.lower()
 
 
+# forward_command_controller's position group, loaded inactive (switch_controller swaps it with the trajectory
+# controller): ur_robot_driver ROS 2's ur_controllers.yaml has `forward_position_controller` over the arm's six
+# joints; SCHUNK's ROS 2 driver has none, so the hand's takes that name on a hand alone and
+# `<hand controller>_forward_position_controller` beside an arm's.
+ROS2_FORWARD_CONTROLLER = "forward_position_controller"
+ROS2_FORWARD_TYPE = "position_controllers/JointGroupPositionController"
+ROS2_JTC_TYPE = "joint_trajectory_controller/JointTrajectoryController"
+
+
+def ros2_hand_forward_controller(hand_controller: str, with_arm: bool) -> str:
+    """The hand's forward position controller: ``forward_position_controller``, ``right_hand_forward_...`` on an arm."""
+    return f"{hand_controller}_{ROS2_FORWARD_CONTROLLER}" if with_arm else ROS2_FORWARD_CONTROLLER
+
+
 # --- The batch model (svhdesc.batch, MuJoCo Warp / MJX): what its exporter promises, what validate holds it to ---
 
 BATCH_SCENE_FILE = "scene_batch.xml"

@@ -1,10 +1,16 @@
 """ros_control's controller_manager on plain values: the loaded controllers, their states and
-ControllerManager::switchController (noetic).
+ControllerManager::switchController (noetic), or ros2_control's switch_controller (Jazzy, ``SWITCH_JAZZY``).
 
-Strictness 0 means BEST_EFFORT; under STRICT an unknown name, starting a running controller, stopping a
-stopped one or a resource claimed twice fails the whole request (nothing changes); under BEST_EFFORT
-those entries are dropped and the rest switch. Stopping a trajectory controller preempts its goal and
-holds the joints; joint_state_controller cannot be switched (it is always on here).
+Strictness 0 means BEST_EFFORT; under STRICT an unknown name, starting a running controller or stopping a
+stopped one fails the whole request (nothing changes); under BEST_EFFORT those entries are dropped and the rest
+switch. Stopping a trajectory controller preempts its goal and holds the joints; joint_state_controller cannot be
+switched (it is always on here).
+
+Where the two managers differ (``SwitchSemantics``): noetic refuses a request that would leave a resource claimed
+by two running controllers (RobotHW::checkForConflict) and one that starts and stops the same controller; Jazzy's
+controller_manager.cpp restarts a controller named in both lists (can_controller_restart), and finds a claimed
+command interface only when it activates, in the real-time loop: that controller stays inactive ("Resource conflict
+for controller '...'. Command interface '...' is already claimed."), the others switch and the request answers ok.
 """
 
 from __future__ import annotations
@@ -15,6 +21,16 @@ from typing import Any
 
 BASE_CLASS = "controller_interface::ControllerBase"
 BEST_EFFORT, STRICT = 1, 2
+
+
+@dataclass(frozen=True)
+class SwitchSemantics:
+    restarts: bool  # a controller both stopped and started is restarted (Jazzy), or the request refused (noetic)
+    conflicts_refuse: bool  # a doubly claimed resource refuses the request (noetic) or skips the activation (Jazzy)
+
+
+SWITCH_NOETIC = SwitchSemantics(restarts=False, conflicts_refuse=True)
+SWITCH_JAZZY = SwitchSemantics(restarts=True, conflicts_refuse=False)
 
 
 @dataclass
@@ -50,10 +66,13 @@ class ControllerInfo:
 
 
 class SwitchCore:
-    def __init__(self, controllers: list[Loaded], log: Callable[[str, str], None]) -> None:
+    def __init__(
+        self, controllers: list[Loaded], log: Callable[[str, str], None], semantics: SwitchSemantics = SWITCH_NOETIC
+    ) -> None:
         """``log(level, text)``: level 'warn' or 'error'."""
         self.controllers = {c.name: c for c in controllers}
         self._log = log
+        self.semantics = semantics
 
     def listed(self) -> list[ControllerInfo]:
         return [
@@ -70,7 +89,7 @@ class SwitchCore:
             strictness = BEST_EFFORT
         strict = strictness == STRICT
         both = sorted(set(start) & set(stop))
-        if both:  # ros_control 0.20 (ControllerManager::switchController) refuses this at any strictness
+        if both and not self.semantics.restarts:  # ros_control 0.20 refuses this at any strictness
             return self._refuse(f"{both} would be started and stopped at once")
         stopping = self._select(stop, lambda c: c.running, "stop", "not running", strict)
         if isinstance(stopping, str):
@@ -78,16 +97,43 @@ class SwitchCore:
         starting = self._select(start, lambda c: not c.running or c in stopping, "start", "already running", strict)
         if isinstance(starting, str):
             return self._refuse(starting)
-        conflict = self._conflict(stopping, starting)
-        if conflict is not None:
-            return self._refuse(conflict)
+        if self.semantics.conflicts_refuse:
+            conflict = self._conflict(stopping, starting)
+            if conflict is not None:
+                return self._refuse(conflict)
         for loaded in stopping:
-            loaded.controller.stopping()
-            loaded.running = False
+            self.stop(loaded)
         for loaded in starting:
+            claimed = self._claimed_by_others(loaded)
+            if claimed is not None:  # Jazzy: found as the real-time loop activates; the rest of the switch stands
+                self._log(
+                    "error",
+                    f"Resource conflict for controller '{loaded.name}'. Command interface '{claimed}' is "
+                    "already claimed.",
+                )
+                continue
             loaded.controller.starting()
             loaded.running = loaded.started = True
         return True
+
+    def stop(self, loaded: Loaded) -> None:
+        loaded.controller.stopping()
+        loaded.running = False
+
+    def fail(self, name: str) -> None:
+        """ros2_control: a controller whose update returned ERROR is deactivated by the controller manager."""
+        loaded = self.controllers[name]
+        if loaded.running:
+            self._log("error", f"Deactivating following controllers as their update resulted in an error :\n\t- {name}")
+            self.stop(loaded)
+
+    def _claimed_by_others(self, loaded: Loaded) -> str | None:
+        for other in self.controllers.values():
+            if other.running and other is not loaded:
+                for resource in loaded.resources:
+                    if resource in other.resources:
+                        return resource
+        return None
 
     def _refuse(self, why: str) -> str:
         self._log("error", f"Could not switch controllers: {why}")

@@ -439,9 +439,10 @@ class JointTrajectoryCore:
 
 
 class ForwardsToCore:
-    """The controller-manager calls every transport's controller forwards to its transport-free core."""
+    """The controller-manager calls every transport's controller forwards to its transport-free core (a
+    JointTrajectoryCore, or control.forward's ForwardCommandCore)."""
 
-    core: JointTrajectoryCore
+    core: Any
 
     @property
     def running(self) -> bool:

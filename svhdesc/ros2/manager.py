@@ -7,8 +7,9 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from svhdesc.control.manager import Loaded, SwitchCore
+from svhdesc.control.manager import SWITCH_JAZZY, Loaded, SwitchCore, SwitchSemantics
 from svhdesc.control.work import on_sim_thread
+from svhdesc.ros2.system import log_at
 
 __all__ = ["ControllerManager", "Loaded", "ros2_state"]
 
@@ -25,6 +26,7 @@ class ControllerManager:
         controllers: list[Loaded],
         interfaces: dict[str, tuple[list[str], list[str]]],
         queue: deque,
+        semantics: SwitchSemantics = SWITCH_JAZZY,
         callback_group: Any = None,
     ) -> None:
         """``interfaces``: each controller's (command, state) interfaces, ``<ROS 2 joint>/<interface>``."""
@@ -33,7 +35,7 @@ class ControllerManager:
 
         self._node = node
         self._ControllerState = ControllerState
-        self.core = SwitchCore(controllers, self._log)
+        self.core = SwitchCore(controllers, self._log, semantics)
         self._interfaces = interfaces
         self._queue = queue
         base = "controller_manager"
@@ -47,8 +49,7 @@ class ControllerManager:
         ]
 
     def _log(self, level: str, text: str) -> None:
-        logger = self._node.get_logger()
-        (logger.error if level == "error" else logger.warning)(text)
+        log_at(self._node.get_logger(), level, text)
 
     def _on_list(self, _: Any, response: Any) -> Any:
         for loaded in list(self.core.controllers.values()):

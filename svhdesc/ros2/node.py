@@ -22,14 +22,14 @@ import math
 import sys
 import threading
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from svhdesc.control.goals import Tolerances
-from svhdesc.control.manager import Loaded
+from svhdesc.control.manager import SWITCH_JAZZY, Loaded
 from svhdesc.control.outbox import Outbox
 from svhdesc.control.work import drain
 from svhdesc.errors import SvhdescError
@@ -37,11 +37,15 @@ from svhdesc.model import (
     JTC_DEFAULTS,
     NODE_NAME,
     REPORTS_VELOCITY,
+    ROS2_FORWARD_TYPE,
     ROS2_JOINT_STATE_BROADCASTER,
+    ROS2_JTC_TYPE,
     ros2_joint_name,
 )
 from svhdesc.ros2.system import import_rclpy
 from svhdesc.sim import Simulation
+
+TRACKING_FRAME = "world"  # MuJoCo's world frame, the URDF's root link
 
 
 def controllers_file(variant: str) -> Path:
@@ -86,9 +90,11 @@ def tolerances(parameters: dict, joints: Sequence[str], to_ros: dict[str, str]) 
 
 
 class SimNode:
-    def __init__(self, sim: Simulation, controllers: Path, recorder: Any = None) -> None:
+    def __init__(self, sim: Simulation, controllers: Path, recorder: Any = None, track: Sequence[str] = ()) -> None:
+        """``track``: bodies of the simulation whose poses are published on ``tracked/<body>`` every update."""
         rclpy = import_rclpy()
         from builtin_interfaces.msg import Time
+        from geometry_msgs.msg import PoseStamped
         from rclpy.clock_type import ClockType
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
@@ -97,6 +103,7 @@ class SimNode:
         from sensor_msgs.msg import JointState
 
         from svhdesc.ros2.controller import TrajectoryController, stamp
+        from svhdesc.ros2.forward import ForwardController
         from svhdesc.ros2.manager import ControllerManager
 
         self._rclpy, self.sim, self.recorder = rclpy, sim, recorder
@@ -120,17 +127,24 @@ class SimNode:
         self._clock = self.node.create_publisher(Clock, "/clock", 10)
         self._joint_states = self.node.create_publisher(JointState, "joint_states", 10)
         self._names = [ros2_joint_name(j) for j in sim.info.joints]
+        for body in track:
+            sim.body_pose(body)  # an unknown body fails here, before anything is served
+        self._PoseStamped = PoseStamped
+        self._tracked = [(body, self.node.create_publisher(PoseStamped, f"tracked/{body}", 10)) for body in track]
         self.controllers: list[TrajectoryController] = []
+        self.forward_controllers: list[ForwardController] = []
         self.outbox = Outbox()  # messages are built and published on its thread (control/outbox.py)
         loaded, interfaces = self._load(controllers, types, parameters)
-        self.manager = ControllerManager(self.node, loaded, interfaces, self.queue)
+        self.manager = ControllerManager(self.node, loaded, interfaces, self.queue, SWITCH_JAZZY)
         self._spinner = threading.Thread(target=self._spin, name="svhdesc-rclpy", daemon=True)
+        self._stopped = threading.Event()
 
     def _load(
         self, path: Path, types: dict[str, str], parameters: dict[str, dict]
     ) -> tuple[list[Loaded], dict[str, tuple[list[str], list[str]]]]:
         """The controllers of the yaml: joint_state_broadcaster (always active) and each trajectory controller."""
         from svhdesc.ros2.controller import TrajectoryController
+        from svhdesc.ros2.forward import ForwardController
 
         sim = self.sim
         to_ros = {j: ros2_joint_name(j) for j in sim.info.actuators}
@@ -146,6 +160,16 @@ class SimNode:
             if unknown or not params.get("joints"):
                 raise SvhdescError(f"{path}: {name} names joints {unknown} that {sim.variant} does not actuate")
             joints = [to_sim[j] for j in params["joints"]]
+            commands = [f"{to_ros[j]}/position" for j in joints]
+            if kind == ROS2_FORWARD_TYPE:  # loaded inactive, as ur_robot_driver's launch loads it
+                forward = ForwardController(self.node, name, joints, sim, self.queue)
+                forward.on_failure = lambda failed: self.manager.core.fail(failed)
+                self.forward_controllers.append(forward)
+                loaded.append(Loaded(name, kind, "position", commands, False, forward))
+                interfaces[name] = (commands, [])  # forward_command_controller claims no state interface
+                continue
+            if kind != ROS2_JTC_TYPE:
+                raise SvhdescError(f"{path}: {name} is a {kind}; the node runs {ROS2_JTC_TYPE} and {ROS2_FORWARD_TYPE}")
             hand = all(j in sim.info.hand_channels for j in joints)
             controller = TrajectoryController(
                 self.node,
@@ -163,9 +187,9 @@ class SimNode:
             )
             controller.recorder, controller.outbox = self._record, self.outbox
             self.controllers.append(controller)
-            loaded.append(Loaded(name, kind, "position", [to_ros[j] for j in joints], True, controller))
+            loaded.append(Loaded(name, kind, "position", commands, True, controller))
             interfaces[name] = (
-                [f"{to_ros[j]}/position" for j in joints],
+                commands,
                 [f"{to_ros[j]}/{i}" for j in joints for i in params.get("state_interfaces", ["position"])],
             )
         return loaded, interfaces
@@ -190,10 +214,11 @@ class SimNode:
         the messages built and published on the Outbox's thread."""
         at = self.sim.time
         self._ros_clock.set_ros_time_override(self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time))
-        self.outbox.add(self._publish_reading, (at, self.sim.joint_state()))
+        poses = [self.sim.body_pose(body) for body, _ in self._tracked]
+        self.outbox.add(self._publish_reading, (at, self.sim.joint_state(), poses))
 
-    def _publish_reading(self, reading: tuple[float, Any]) -> None:
-        at, state = reading
+    def _publish_reading(self, reading: tuple[float, Any, list[Any]]) -> None:
+        at, state, poses = reading
         clock = self._Clock(clock=self._stamp(self._Time, at))
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
@@ -206,10 +231,17 @@ class SimNode:
         message.header.stamp = clock.clock
         self._joint_states.publish(message)
         self._record(self._joint_states.topic_name, message, at)
+        for (_, publisher), (position, quaternion) in zip(self._tracked, poses):
+            pose = self._PoseStamped()
+            pose.header.stamp, pose.header.frame_id = clock.clock, TRACKING_FRAME
+            p, o = pose.pose.position, pose.pose.orientation
+            p.x, p.y, p.z = position.tolist()
+            o.w, o.x, o.y, o.z = quaternion.tolist()  # MuJoCo's quaternions are (w, x, y, z)
+            publisher.publish(pose)
 
     def update(self, _: Any = None) -> bool:
         """One control update (after a period of physics): False once ROS 2 shuts down (SIGINT, SIGTERM)."""
-        if not self._rclpy.ok():
+        if not self._rclpy.ok() or self._stopped.is_set():
             return False
         try:
             for controller in self.controllers:
@@ -243,12 +275,87 @@ class SimNode:
         self.outbox.flush(force=True)  # what the last updates collected
         return factor
 
-    def close(self) -> None:
+    def stop(self) -> None:
+        """End ``spin`` at the next control update (any thread)."""
+        self._stopped.set()
+
+    def close(self, shutdown: bool = True) -> None:
+        """Stop publishing, the executor and the node; ``shutdown`` rclpy too (False: the caller's rclpy runs on)."""
         self.outbox.close()
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
-        self._rclpy.try_shutdown()
+        if shutdown:
+            self._rclpy.try_shutdown()
         self._spinner.join(2.0)
+
+
+def serve(
+    sim: Simulation,
+    *,
+    track: Sequence[str] = (),
+    duration: float = math.inf,
+    realtime: bool = True,
+    ros_args: Sequence[str] = (),
+    record: Path | None = None,
+    viewer: bool = False,
+    on_start: Callable[[SimNode], Any] | None = None,
+) -> float:
+    """Serve ``sim`` (a Simulation the caller built, its scene edited as it likes) over ROS 2 with the interfaces of
+    ``svhdesc sim --ros2`` plus a PoseStamped on ``tracked/<body>`` for each body of ``track``, until ``duration``
+    simulated seconds have passed, SIGINT or SIGTERM arrives, or ``SimNode.stop()`` is called; returns the real-time
+    factor. Runs on the calling thread (call it from the main thread: rclpy installs its signal handlers there).
+    rclpy is initialised (with ``ros_args`` as remappings) unless the caller already did; then it is left running.
+    ``on_start(node)`` runs once the node serves (e.g. to start a client thread)."""
+    rclpy = import_rclpy()
+    path = controllers_file(sim.variant)
+    read_controllers(path)  # a bad file fails before anything starts
+    owned = not rclpy.ok()
+    recorder = None
+    if record is not None:
+        from svhdesc.ros2.record import Recorder
+
+        recorder = Recorder(record)
+    if owned:
+        remaps = [a for arg in ros_args for a in ("-r", arg)]
+        rclpy.init(args=["svhdesc", *(["--ros-args", *remaps] if remaps else [])])
+    window = None
+    node = None
+    factor = 0.0
+    try:
+        node = SimNode(sim, path, recorder, track)
+        if viewer:
+            from svhdesc.sim.viewer import Viewer
+
+            window = Viewer(sim.model, sim.data)
+        logger = node.node.get_logger()
+        names = ", ".join(c.name for c in node.controllers)
+        pace = "real time" if realtime else "as fast"
+        logger.info(f"{sim.variant}: serving {names} at {1 / node.period:g} Hz ({pace})")
+        if on_start is not None:
+            on_start(node)
+        factor = node.spin(duration, realtime, window)
+        summary = f"{sim.variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time"
+        if rclpy.ok():
+            logger.info(summary)
+        else:  # stopped by a signal: rosout is gone
+            print(f"[INFO] [{NODE_NAME}]: {summary}", file=sys.stderr)
+    finally:
+        _close(rclpy, node, recorder, window, owned)
+    return factor
+
+
+def _close(rclpy: Any, node: SimNode | None, recorder: Any, window: Any, owned: bool) -> None:
+    """Every message sent (and recorded) before the recording closes; rclpy shut down if ``serve`` started it."""
+    if node is not None:
+        node.outbox.close()
+    if recorder is not None:
+        recorder.close()
+    if window is not None:
+        window.close()
+    if node is not None:
+        node.close(shutdown=owned)
+    if owned:
+        rclpy.try_shutdown()
 
 
 def run_node(
@@ -260,46 +367,22 @@ def run_node(
     ros_args: list[str],
     record: Path | None = None,
     objects: Sequence[Any] = (),
+    track: Sequence[str] = (),
 ) -> None:
     """``svhdesc sim VARIANT --ros2``: serve the simulation over ROS 2 (DDS discovery as ROS_* variables say)."""
-    rclpy = import_rclpy()
+    import_rclpy()
     from svhdesc.sim.objects import add_objects
 
-    path = controllers_file(variant)
-    read_controllers(path)  # a bad file fails before anything starts
+    read_controllers(controllers_file(variant))  # a bad file fails before the scene compiles
     sim = Simulation(variant, keyframe, edit=lambda spec: add_objects(spec, objects))
-    recorder = None
-    if record is not None:
-        from svhdesc.ros2.record import Recorder
-
-        recorder = Recorder(record)
-    remaps = [a for arg in ros_args for a in ("-r", arg)]
-    rclpy.init(args=["svhdesc", *(["--ros-args", *remaps] if remaps else [])])
-    window = None
-    node = None
-    factor = 0.0
-    try:
-        node = SimNode(sim, path, recorder)
-        if viewer:
-            from svhdesc.sim.viewer import Viewer
-
-            window = Viewer(sim.model, sim.data)
-        logger = node.node.get_logger()
-        names = ", ".join(c.name for c in node.controllers)
-        logger.info(f"{variant}: serving {names} at {1 / node.period:g} Hz ({'real time' if realtime else 'as fast'})")
-        factor = node.spin(math.inf if duration is None else duration, realtime, window)
-        summary = f"{variant}: {sim.time:.3f} s simulated at {factor:.2f}x real time"
-        if rclpy.ok():
-            logger.info(summary)
-        else:  # stopped by a signal: rosout is gone
-            print(f"[INFO] [{NODE_NAME}]: {summary}", file=sys.stderr)
-    finally:
-        if node is not None:
-            node.outbox.close()  # every message sent (and recorded) before the recording closes
-        if recorder is not None:
-            recorder.close()
-        if window is not None:
-            window.close()
-        if node is not None:
-            node.close()
-        rclpy.try_shutdown()
+    for body in track:
+        sim.body_pose(body)  # unknown bodies fail before anything starts
+    serve(
+        sim,
+        track=track,
+        duration=math.inf if duration is None else duration,
+        realtime=realtime,
+        ros_args=ros_args,
+        record=record,
+        viewer=viewer,
+    )

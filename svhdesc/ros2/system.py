@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from types import ModuleType
+from typing import Any
 
 from svhdesc.errors import SvhdescError
 
@@ -22,3 +23,12 @@ def import_rclpy() -> ModuleType:
     except ImportError as exc:  # ModuleNotFoundError, or a wheel whose native library does not load
         raise SvhdescError(MISSING.format(python=sys.executable, why=exc)) from None
     return rclpy
+
+
+def log_at(logger: Any, level: str, text: str) -> None:
+    """Log ``text`` at ``level`` ('error', else a warning). One call line per severity: rclpy remembers each call
+    site's severity and raises ("Logger severity cannot be changed between calls") when one line uses two."""
+    if level == "error":
+        logger.error(text)
+    else:
+        logger.warning(text)

@@ -5,6 +5,7 @@ files: ros2/config/ros2_controllers.yaml and ros2/mujoco/<variant>.xml).
     python client.py VARIANT_DIR REPORT.json        # every check, one JSON report (tests/ros2/test_node.py reads it)
     python client.py --die VARIANT_DIR CONTROLLER   # send a long goal, print "accepted", kill itself (SIGKILL)
     python client.py --recording FILE.mcap OUT.json # read the node's recording back with rosbags
+    python client.py --tracker VARIANT_DIR OUT.json BODY...   # tracked/<body> poses, the forward controller driving
 
 Runs inside the test's private network namespace with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST. Every wait is on
 simulated time (/clock) or on an answer, bounded by a generous wall-clock timeout.
@@ -31,15 +32,18 @@ from builtin_interfaces.msg import Duration, Time
 from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import JointTolerance, JointTrajectoryControllerState
 from controller_manager_msgs.srv import ListControllers, SwitchController
+from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 WALL = float(os.environ.get("SVHDESC_CLIENT_WALL", "60"))  # the most one answer may take (wall-clock s)
 ARM = "scaled_joint_trajectory_controller"
+FORWARD = "position_controllers/JointGroupPositionController"
 STATUS = {
     GoalStatus.STATUS_SUCCEEDED: "succeeded",
     GoalStatus.STATUS_CANCELED: "canceled",
@@ -77,7 +81,12 @@ class Client:
         self.trajectory = {
             n: controllers[n]["ros__parameters"]["joints"]
             for n, v in manager.items()
-            if isinstance(v, dict) and n in controllers
+            if isinstance(v, dict) and n in controllers and v["type"] != FORWARD
+        }
+        self.forward = {
+            n: controllers[n]["ros__parameters"]["joints"]
+            for n, v in manager.items()
+            if isinstance(v, dict) and v["type"] == FORWARD
         }
         self.hand = next(n for n in self.trajectory if n != ARM)
         mjcf = ET.parse(variant_dir / "ros2/mujoco" / f"{self.variant}.xml")
@@ -218,7 +227,13 @@ class Client:
     def listed(self) -> dict[str, dict[str, Any]]:
         answer = wait(self.list.call_async(ListControllers.Request()))
         return {
-            c.name: {"state": c.state, "type": c.type, "claimed": list(c.claimed_interfaces)} for c in answer.controller
+            c.name: {
+                "state": c.state,
+                "type": c.type,
+                "claimed": list(c.claimed_interfaces),
+                "required": list(c.required_command_interfaces),
+            }
+            for c in answer.controller
         }
 
     def switched(self, activate: list[str], deactivate: list[str]) -> bool:
@@ -226,6 +241,16 @@ class Client:
             activate_controllers=activate, deactivate_controllers=deactivate, strictness=SwitchController.Request.STRICT
         )
         return bool(wait(self.switch.call_async(request)).ok)
+
+    def publisher(self, topic: str, kind: Any) -> Any:
+        """A publisher matched with the node's subscription (a message sent before discovery would be lost)."""
+        publisher = self.node.create_publisher(kind, topic, 10)
+        deadline = time.monotonic() + WALL
+        while publisher.get_subscription_count() == 0:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"nobody subscribes {topic}")
+            time.sleep(0.01)
+        return publisher
 
 
 # -- the checks (each returns what the test asserts on) ------------------------------------------
@@ -389,6 +414,7 @@ def switching(c: Client) -> dict[str, Any]:
     refused = c.send(c.hand, c.goal(joints, [(0.5, c.target(0.1, joints))])).accepted
     on = c.switched([c.hand], [])
     both = c.switched([c.hand], [c.hand])
+    restarted = c.listed()[c.hand]
     unknown = c.switched(["no_such_controller"], [])
     return {
         "before": before,
@@ -398,8 +424,97 @@ def switching(c: Client) -> dict[str, Any]:
         "activated": on,
         "listed_after": c.listed()[c.hand],
         "start_and_stop_at_once": both,
+        "listed_restarted": restarted,
         "unknown_strict": unknown,
     }
+
+
+def forward(c: Client) -> dict[str, Any]:
+    """The forward position controllers: listed inactive; activating one beside the active trajectory controller of
+    its joints (a claimed interface); swapping them; commands in the yaml's joint order; a command of the wrong
+    length (the controller is deactivated), non-finite values (dropped); swapping back (a goal succeeds)."""
+    out: dict[str, Any] = {"listed": {n: c.listed()[n] for n in c.forward}}
+    for name, joints in c.forward.items():
+        trajectory = next(t for t, j in c.trajectory.items() if set(j) == set(joints))
+        part: dict[str, Any] = {"trajectory": trajectory}
+        part["beside_ok"] = c.switched([name], [])  # Jazzy answers ok; the activation fails on the conflict
+        part["beside_state"] = c.listed()[name]["state"]
+        part["swapped"] = c.switched([name], [trajectory])
+        listed = c.listed()
+        part["after_swap"] = {"forward": listed[name], "trajectory": listed[trajectory]["state"]}
+        part["goal_accepted"] = c.send(trajectory, c.goal(joints, [(0.5, c.target(0.1, joints))])).accepted
+        commands = c.publisher(f"/{name}/commands", Float64MultiArray)
+        here = c.positions()
+        target = (
+            c.target(0.4, joints) if trajectory == c.hand else [here[j] + d for j, d in zip(joints, (0.15, -0.15) * 3)]
+        )
+        commands.publish(Float64MultiArray(data=target))
+        sent = c.latest()
+        reached = c.at(sent + 2.0)
+        part["errors"] = {j: abs(reached[j] - t) for j, t in zip(joints, target)}
+        commands.publish(Float64MultiArray(data=[float("nan")] * len(joints)))
+        c.sleep(0.3)
+        part["after_nan"] = {"state": c.listed()[name]["state"], "moved": _moved(reached, c.positions(), joints)}
+        commands.publish(Float64MultiArray(data=c.target(0.1, joints)[:-1]))
+        c.sleep(0.3)
+        before = c.positions()
+        part["after_short"] = c.listed()[name]["state"]
+        commands.publish(Float64MultiArray(data=c.target(0.1, joints)))  # ignored: the controller is inactive
+        c.sleep(0.5)
+        part["moved_while_inactive"] = _moved(before, c.positions(), joints)
+        part["swapped_back"] = c.switched([trajectory], [])  # the failed controller is inactive already
+        part["goal_after"] = c.run(trajectory, c.goal(joints, [(1.0, _within(c, joints, reached))]))
+        c.node.destroy_publisher(commands)
+        out[name] = part
+    return out
+
+
+def _moved(before: dict[str, float], after: dict[str, float], joints: list[str]) -> float:
+    return max(abs(after[j] - before[j]) for j in joints)
+
+
+def _within(c: Client, joints: list[str], positions: dict[str, float]) -> list[float]:
+    """``positions`` of ``joints`` kept inside their ranges (a goal outside them is refused)."""
+    return [min(max(positions[j], c.ranges[j][0]), c.ranges[j][1]) for j in joints]
+
+
+def tracker(c: Client, bodies: list[str]) -> dict[str, Any]:
+    """What ``tracked/<body>`` (geometry_msgs/PoseStamped) carries for each body over 2 simulated s, while the hand's
+    forward position controller, swapped in, brings the channels to 30 % of their ranges."""
+    poses: dict[str, list[Any]] = {b: [] for b in bodies}
+    subscriptions = [
+        c.node.create_subscription(PoseStamped, f"/tracked/{b}", lambda m, b=b: poses[b].append(m), 1000)
+        for b in bodies
+    ]
+    name = next(iter(c.forward))
+    joints = c.forward[name]
+    swapped = c.switched([name], [c.hand])
+    commands = c.publisher(f"/{name}/commands", Float64MultiArray)
+    target = c.target(0.3, joints)
+    commands.publish(Float64MultiArray(data=target))
+    c.sleep(2.0)
+    reached = c.positions()
+    for subscription in subscriptions:
+        c.node.destroy_subscription(subscription)
+    out: dict[str, Any] = {"swapped": swapped, "errors": [abs(reached[j] - t) for j, t in zip(joints, target)]}
+    for body, messages in poses.items():
+        stamps = [seconds(m.header.stamp) for m in messages]
+        last = messages[-1] if messages else None
+        out[body] = {
+            "count": len(messages),
+            "frames": sorted({m.header.frame_id for m in messages}),
+            "steps": sorted({round(b - a, 6) for a, b in zip(stamps, stamps[1:])}),
+            "position": [last.pose.position.x, last.pose.position.y, last.pose.position.z] if last else None,
+            "orientation": [
+                last.pose.orientation.w,
+                last.pose.orientation.x,
+                last.pose.orientation.y,
+                last.pose.orientation.z,
+            ]
+            if last
+            else None,
+        }
+    return out
 
 
 def die(variant_dir: Path, controller: str) -> None:
@@ -444,10 +559,21 @@ def main() -> None:
     if sys.argv[1] == "--die":
         die(Path(sys.argv[2]), sys.argv[3])
         return
+    if sys.argv[1] == "--tracker":  # --tracker VARIANT_DIR REPORT.json BODY...
+        c = Client(Path(sys.argv[2]))
+        c.ready()
+        Path(sys.argv[3]).write_text(json.dumps(tracker(c, sys.argv[4:]), indent=1, sort_keys=True))
+        sys.stdout.flush()
+        os._exit(0)
     variant_dir, out = Path(sys.argv[1]), Path(sys.argv[2])
     c = Client(variant_dir)
     c.ready()
-    report: dict[str, Any] = {"variant": c.variant, "hand": c.hand, "controllers": sorted(c.trajectory)}
+    report: dict[str, Any] = {
+        "variant": c.variant,
+        "hand": c.hand,
+        "controllers": sorted(c.trajectory),
+        "forward_controllers": sorted(c.forward),
+    }
     checks = [
         ("joint_states", lambda: joint_states(c)),
         ("controller_states", lambda: controller_states(c)),
@@ -458,6 +584,7 @@ def main() -> None:
         ("burst", lambda: burst(c)),
         ("killed_client", lambda: killed_client(c, variant_dir)),
         ("switching", lambda: switching(c)),
+        ("forward", lambda: forward(c)),
     ]
     for name, check in checks:
         began = time.monotonic()

@@ -26,46 +26,24 @@ reverted:
 from __future__ import annotations
 
 import json
-import os
 import shlex
 import subprocess
-from pathlib import Path
 from typing import Any
 
 import pytest
 
 from tests.netns import private_namespace
+from tests.ros2.support import CLIENT, PYTHON, private_env, why_not
 
-ROOT = Path(__file__).resolve().parents[2]
-CLIENT = Path(__file__).with_name("client.py")
-PYTHON = Path(os.environ.get("SVHDESC_ROS2_PYTHON", ROOT / ".venv-ros2" / "bin" / "python"))
 VARIANTS = ("svh_right", "ur5_svh_right")
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
-def _why_not() -> str | None:
-    if not PYTHON.is_file():
-        return f"no ROS 2 Python at {PYTHON} (bash tools/install.sh ros2, or set SVHDESC_ROS2_PYTHON)"
-    namespace = private_namespace()
-    if isinstance(namespace, str):
-        return namespace
-    imports = subprocess.run(
-        [str(PYTHON), "-c", "import rclpy, control_msgs.action, controller_manager_msgs.srv, rosbags, mcap_ros2"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    if imports.returncode != 0:
-        return f"{PYTHON} lacks the ros2 extra: {imports.stderr.strip().splitlines()[-1:]}"
-    return None
-
-
 @pytest.fixture(scope="module", params=VARIANTS)
 def served(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     """One node (recording) and one client run for the variant; the client's report, the node's exit and log."""
-    why = _why_not()
+    why = why_not()
     if why:
         pytest.skip(why)
     from svhdesc.model import get
@@ -85,13 +63,7 @@ wait $node
 echo "node $?" >> {work}/exits
 {python} {client} --recording {recording} {work}/recording.json >> {work}/client.log 2>&1
 """
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),  # the checkout under test
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-        "ROS_LOG_DIR": str(work / "roslog"),
-    }
-    env.pop("ROS_DOMAIN_ID", None)
+    env = private_env(work)
     namespace = private_namespace()
     assert isinstance(namespace, list)
     subprocess.run([*namespace, "sh", "-c", script], env=env, timeout=400, check=False)
@@ -210,22 +182,64 @@ def test_a_client_killed_mid_goal(served: dict[str, Any]) -> None:
 
 
 def test_controller_manager_lists_and_switches(served: dict[str, Any]) -> None:
-    """list_controllers: joint_state_broadcaster and each controller "active" with their yaml types, claiming
-    <joint>/position; switch_controller (STRICT) deactivates the hand (listed inactive, claiming nothing, goals
-    rejected) and activates it again; starting and stopping one controller at once, or an unknown one, fails.
-    Seeded fault: ros2_state answering ROS 1's "running"."""
+    """list_controllers: joint_state_broadcaster and each trajectory controller "active" with their yaml types,
+    claiming <joint>/position (the forward controllers inactive); switch_controller (STRICT) deactivates the hand
+    (listed inactive, claiming nothing, goals rejected) and activates it again; naming the active hand controller in
+    both lists restarts it (Jazzy's can_controller_restart: ok, still active); an unknown controller fails under
+    STRICT. Seeded faults: ros2_state answering ROS 1's "running"; SWITCH_JAZZY.restarts False -> the restart fails."""
     part = _part(served, "switching")
     report = served["report"]
     hand = report["hand"]
-    assert set(part["before"]) == {"joint_state_broadcaster", *report["controllers"]}
-    assert all(c["state"] == "active" for c in part["before"].values())
+    trajectory = {"joint_state_broadcaster", *report["controllers"]}
+    assert set(part["before"]) == trajectory | set(report["forward_controllers"])
+    assert all(part["before"][c]["state"] == "active" for c in trajectory)
+    assert all(part["before"][c]["state"] == "inactive" for c in report["forward_controllers"])
     assert part["before"][hand]["type"] == "joint_trajectory_controller/JointTrajectoryController"
     assert all(i.endswith("/position") for i in part["before"][hand]["claimed"])
     assert part["deactivated"] and part["activated"]
     assert part["listed_inactive"]["state"] == "inactive" and part["listed_inactive"]["claimed"] == []
     assert not part["goal_accepted_while_inactive"]
     assert part["listed_after"]["state"] == "active"
-    assert not part["start_and_stop_at_once"] and not part["unknown_strict"]
+    assert part["start_and_stop_at_once"] and part["listed_restarted"]["state"] == "active"
+    assert not part["unknown_strict"]
+
+
+def test_forward_position_controllers_switch_with_the_trajectory_controllers(served: dict[str, Any]) -> None:
+    """Each forward position controller of the yaml (the hand's; on ur5_svh_right also ur_robot_driver's over the
+    arm) as ros2_controllers' JointGroupPositionController under Jazzy's controller_manager: listed inactive, type
+    position_controllers/JointGroupPositionController, requiring <joint>/position in the yaml's order; activating it
+    while the trajectory controller of its joints is active answers ok but leaves it inactive (the claimed interface);
+    swapped in (STRICT), it claims the interfaces, the trajectory controller is inactive and refuses goals; a command
+    (Float64MultiArray in the yaml's joint order) brings every joint within 0.05 rad in 2 s; NaN values are dropped
+    (it stays active, the joints stay); a command one value short deactivates it (logged as Jazzy logs it) and a
+    later command moves nothing; swapped back, a trajectory goal succeeds. Seeded faults: the adapter reversing the
+    command's values -> errors; ``JAZZY_FORWARD.wrong_size_fails`` False -> stays active; SWITCH_JAZZY refusing
+    conflicts -> beside_ok False."""
+    part = _part(served, "forward")
+    hand = "right_hand_forward_position_controller" if "ur5" in served["variant"] else "forward_position_controller"
+    expected = {hand} | ({"forward_position_controller"} if "ur5" in served["variant"] else set())
+    assert set(part["listed"]) == expected
+    for name, listed in part["listed"].items():
+        assert (listed["state"], listed["claimed"], listed["type"]) == (
+            "inactive",
+            [],
+            "position_controllers/JointGroupPositionController",
+        )
+        assert all(i.endswith("/position") for i in listed["required"]) and listed["required"]
+        case = part[name]
+        assert case["beside_ok"] and case["beside_state"] == "inactive", case
+        assert case["swapped"] and case["after_swap"]["trajectory"] == "inactive"
+        assert case["after_swap"]["forward"]["state"] == "active"
+        assert case["after_swap"]["forward"]["claimed"] == listed["required"]
+        assert not case["goal_accepted"]
+        assert max(case["errors"].values()) < 0.05, case["errors"]
+        assert case["after_nan"]["state"] == "active" and case["after_nan"]["moved"] < 0.01, case["after_nan"]
+        assert case["after_short"] == "inactive" and case["moved_while_inactive"] < 0.01, case
+        assert case["swapped_back"] and (case["goal_after"]["status"], case["goal_after"]["code"]) == ("succeeded", 0)
+    log = served["log"]
+    assert "command size (8) does not match number of interfaces (9)" in log
+    assert "Deactivating following controllers as their update resulted in an error" in log
+    assert "is already claimed" in log and "Non-finite value received" in log
 
 
 def test_node_stopped_cleanly_and_logged_rejections(served: dict[str, Any]) -> None:
@@ -285,18 +299,12 @@ print(json.dumps(report))
 def in_process(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     """A SimNode of svh_right in a process of the ROS 2 venv (unshare -n): 1000 callbacks queued at once, each
     noting the simulated time and the node's clock when it ran, then 1.2 simulated s as fast as possible."""
-    why = _why_not()
+    why = why_not()
     if why:
         pytest.skip(why)
     namespace = private_namespace()
     assert isinstance(namespace, list)
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-        "ROS_LOG_DIR": str(tmp_path_factory.mktemp("in-process") / "roslog"),
-    }
-    env.pop("ROS_DOMAIN_ID", None)
+    env = private_env(tmp_path_factory.mktemp("in-process"))
     script = f"ip link set lo up && exec {shlex.quote(str(PYTHON))} -c {shlex.quote(IN_PROCESS)}"
     result = subprocess.run(
         [*namespace, "sh", "-c", script], env=env, capture_output=True, text=True, timeout=300, check=False

@@ -10,7 +10,7 @@ import json
 
 from svhdesc.compiler.export.package import package_name
 from svhdesc.compiler.export.ros import GENERATED
-from svhdesc.compiler.export.ros2 import FOLDER, controllers
+from svhdesc.compiler.export.ros2 import FOLDER, controllers, forward_controllers
 from svhdesc.compiler.export.ros2_control import (
     CONTROLLERS_FILE,
     DEFAULT_HARDWARE,
@@ -142,13 +142,14 @@ def generate_launch_description():
             condition=LaunchConfigurationEquals("hardware", "gazebo"),
         ),
     ]
-    for controller in SPAWN:
+    for controller in SPAWN + INACTIVE:
         actions.append(
             Node(
                 package="controller_manager",
                 executable="spawner",
                 output="screen",
-                arguments=[controller, "--controller-manager", "/controller_manager", "--param-file", controllers],
+                arguments=[controller, "--controller-manager", "/controller_manager", "--param-file", controllers]
+                + (["--inactive"] if controller in INACTIVE else []),
                 parameters=[sim_time],
             )
         )
@@ -222,6 +223,7 @@ def _render(robot: Robot, doc: str, imports: str, body: str, extra: dict[str, ob
 
 
 def export_sim_launch(robot: Robot) -> bytes:
+    inactive = [name for name, _ in forward_controllers(robot)]  # loaded inactive, as ur_robot_driver's launch does
     spawn = [ROS2_JOINT_STATE_BROADCASTER] + [name for name, _, _ in controllers(robot)]
     extra = {
         "CONTROLLERS": CONTROLLERS_FILE,
@@ -229,6 +231,7 @@ def export_sim_launch(robot: Robot) -> bytes:
         "HARDWARE": list(PLUGINS),
         "DEFAULT_HARDWARE": DEFAULT_HARDWARE,
         "SPAWN": spawn,
+        "INACTIVE": inactive,
     }
     doc = f"ros2 launch {robot.name} sim.launch.py hardware:={'|'.join(PLUGINS)}: ros2_control and the controllers."
     return _render(robot, doc, _SIM_IMPORTS, _DESCRIPTION + _SIM, extra)

@@ -23,14 +23,18 @@ from svhdesc.model import (
     DECLARES_CONSTRAINTS,
     ROS2_ARM_CONTROLLER,
     ROS2_CONSTRAINTS,
+    ROS2_FORWARD_CONTROLLER,
+    ROS2_FORWARD_TYPE,
     ROS2_JOINT_STATE_BROADCASTER,
+    ROS2_JTC_TYPE,
     ROS2_UPDATE_RATE,
     ros2_hand_controller,
+    ros2_hand_forward_controller,
     ros2_joint_name,
 )
 
 FOLDER = "ros2"
-JTC = "joint_trajectory_controller/JointTrajectoryController"
+JTC = ROS2_JTC_TYPE
 COMMAND_INTERFACES = ("position",)
 STATE_INTERFACES = ("position", "velocity")  # what both drivers' controllers claim
 ACTION_MONITOR_RATE = 20.0  # both drivers' (JTC's default)
@@ -41,6 +45,7 @@ EXEC_DEPENDS = (
     "controller_manager",
     "joint_state_broadcaster",
     "joint_trajectory_controller",
+    "position_controllers",
     "mock_components",
 )
 OPTIONAL_DEPENDS = ("mujoco_ros2_control", "gz_ros2_control", "ros_gz_sim", "moveit_ros_move_group")
@@ -71,6 +76,19 @@ def controllers(robot: Robot) -> list[tuple[str, list[str], str]]:
         found.append((ros2_hand_controller(hand_prefix(robot)), [c.joint for c in robot.channels], "hand"))
     if arm_joints(robot):
         found.append((ROS2_ARM_CONTROLLER, arm_joints(robot), "arm"))
+    return found
+
+
+def forward_controllers(robot: Robot) -> list[tuple[str, list[str]]]:
+    """(name, joints) of each forward position controller (loaded inactive): the arm's as ur_robot_driver names it,
+    then the hand's over the driver's channels."""
+    found = []
+    arm = arm_joints(robot)
+    if arm:
+        found.append((ROS2_FORWARD_CONTROLLER, arm))
+    if robot.channels:
+        name = ros2_hand_forward_controller(ros2_hand_controller(hand_prefix(robot)), bool(arm))
+        found.append((name, [c.joint for c in robot.channels]))
     return found
 
 
@@ -143,6 +161,9 @@ def export_controllers(robot: Robot) -> bytes:
     for name, joints, kind in controllers(robot):
         manager[name] = {"type": JTC}
         document[name] = {"ros__parameters": _jtc(joints, kind)}
+    for name, joints in forward_controllers(robot):  # ur_controllers.yaml gives it `joints` only
+        manager[name] = {"type": ROS2_FORWARD_TYPE}
+        document[name] = {"ros__parameters": {"joints": joints}}
     return dump_yaml(document)
 
 

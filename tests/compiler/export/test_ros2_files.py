@@ -48,6 +48,10 @@ JTC_PARAMETERS = {
     "gains",
     "constraints",
 }
+# forward_command_controller's (forward_command_controller_parameters.yaml); JointGroupPositionController fixes
+# interface_name to position.
+FORWARD_PARAMETERS = {"joints", "interface_name"}
+FORWARD_TYPE = "position_controllers/JointGroupPositionController"
 SIDE = {"svh_right": "Right_Hand", "ur5_svh_right": "Right_Hand", "svh_left": "Left_Hand"}
 CONTROLLER = {"svh_right": "right_hand", "ur5_svh_right": "right_hand", "svh_left": "left_hand"}
 ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
@@ -156,8 +160,8 @@ def test_an_unknown_hardware_is_refused_by_xacro(variant: str) -> None:
 
 
 def controller_errors(parameters: dict[str, Any], urdf: etree._Element) -> list[str]:
-    """Each controller the manager declares: a JTC whose parameters JTC knows, over joints and interfaces the
-    ros2_control system provides."""
+    """Each controller the manager declares: a JTC or a position group whose parameters the controller knows, over
+    joints and interfaces the ros2_control system provides."""
     manager = parameters["controller_manager"]["ros__parameters"]
     commands, states = _interfaces(urdf, "command"), _interfaces(urdf, "state")
     errors = []
@@ -165,6 +169,14 @@ def controller_errors(parameters: dict[str, Any], urdf: etree._Element) -> list[
         if not isinstance(declared, dict) or declared["type"].startswith("joint_state_broadcaster/"):
             continue
         controller = parameters[name]["ros__parameters"]
+        if declared["type"] == FORWARD_TYPE:
+            errors += [f"{name}: unknown parameter {key}" for key in set(controller) - FORWARD_PARAMETERS]
+            errors += [
+                f"{name}: {j} has no position command"
+                for j in controller["joints"]
+                if "position" not in commands.get(j, set())
+            ]
+            continue
         errors += [f"{name}: unknown parameter {key}" for key in set(controller) - JTC_PARAMETERS]
         for joint in controller["joints"]:
             if not set(controller["command_interfaces"]) <= commands.get(joint, set()):
@@ -181,13 +193,21 @@ def test_controllers_yaml_is_ros2_parameters_over_the_described_joints(variant: 
     parameters, urdf = _controllers(variant), _expand(variant, "mock")
     manager = parameters["controller_manager"]["ros__parameters"]
     assert manager["update_rate"] == ROS2_UPDATE_RATE
-    expected = {"joint_state_broadcaster", CONTROLLER[variant]} | (
-        {"scaled_joint_trajectory_controller"} if "ur5" in variant else set()
+    # The forward position controllers: ur_robot_driver's over the arm; the hand's, named after it beside an arm.
+    hand_forward = (
+        f"{CONTROLLER[variant]}_forward_position_controller" if "ur5" in variant else "forward_position_controller"
+    )
+    expected = {"joint_state_broadcaster", CONTROLLER[variant], hand_forward} | (
+        {"scaled_joint_trajectory_controller", "forward_position_controller"} if "ur5" in variant else set()
     )
     assert {k for k, v in manager.items() if isinstance(v, dict)} == expected
     assert controller_errors(parameters, urdf) == []
     hand = parameters[CONTROLLER[variant]]["ros__parameters"]
     assert hand["joints"] == [f"{SIDE[variant]}_{c}" for c in DRIVER_CHANNELS]
+    assert manager[hand_forward]["type"] == FORWARD_TYPE
+    assert parameters[hand_forward]["ros__parameters"] == {"joints": hand["joints"]}
+    if "ur5" in variant:
+        assert parameters["forward_position_controller"]["ros__parameters"] == {"joints": list(ARM)}
     assert hand["allow_partial_joints_goal"] is True and "constraints" not in hand  # SCHUNK's: JTC defaults
     if "ur5" in variant:
         arm = parameters["scaled_joint_trajectory_controller"]["ros__parameters"]
@@ -200,7 +220,9 @@ def test_controllers_yaml_is_ros2_parameters_over_the_described_joints(variant: 
     controller["joints"][0] = controller["joints"][0].lower()
     controller["state_interfaces"] = ["position", "acceleration"]
     controller["state_publish_rate"] = 50.0
-    assert len(controller_errors(broken, urdf)) == 1 + 9 + 1
+    broken[hand_forward]["ros__parameters"]["joints"][-1] += "_x"
+    broken[hand_forward]["ros__parameters"]["command_interfaces"] = ["position"]
+    assert len(controller_errors(broken, urdf)) == 1 + 9 + 1 + 2
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
@@ -302,8 +324,12 @@ def test_launch_files_spawn_the_yaml_controllers_and_name_files_that_exist(
     share = built() / variant  # the package's share directory is the variant folder
     module, calls = _launch(variant, "sim.launch.py", monkeypatch)
     manager = _controllers(variant)["controller_manager"]["ros__parameters"]
-    spawned = [k["arguments"][0] for kind, _, k in calls if kind == "Node" and k["executable"] == "spawner"]
-    assert spawned == [name for name, value in manager.items() if isinstance(value, dict)]
+    spawners = [k["arguments"] for kind, _, k in calls if kind == "Node" and k["executable"] == "spawner"]
+    assert spawners[0][0] == "joint_state_broadcaster"
+    assert sorted(a[0] for a in spawners) == sorted(name for name, value in manager.items() if isinstance(value, dict))
+    # the forward position controllers are loaded inactive (spawner --inactive), the others active
+    inactive = {a[0] for a in spawners if "--inactive" in a}
+    assert inactive == {n for n, v in manager.items() if isinstance(v, dict) and v["type"] == FORWARD_TYPE} != set()
     arguments = {a[0]: k for kind, a, k in calls if kind == "DeclareLaunchArgument"}
     assert arguments["hardware"]["choices"] == list(PLUGINS) and "use_sim_time" in arguments
     executables = {(k["package"], k["executable"]) for kind, _, k in calls if kind == "Node"}
