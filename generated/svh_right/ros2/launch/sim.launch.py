@@ -23,6 +23,7 @@ MUJOCO_SCENE = "ros2/mujoco/scene.xml"
 HARDWARE = ["mujoco", "gazebo", "mock"]
 DEFAULT_HARDWARE = "mujoco"
 SPAWN = ["joint_state_broadcaster", "right_hand"]
+INACTIVE = ["forward_position_controller"]
 
 
 def robot_description(share, hardware):
@@ -97,13 +98,14 @@ def generate_launch_description():
             condition=LaunchConfigurationEquals("hardware", "gazebo"),
         ),
     ]
-    for controller in SPAWN:
+    for controller in SPAWN + INACTIVE:
         actions.append(
             Node(
                 package="controller_manager",
                 executable="spawner",
                 output="screen",
-                arguments=[controller, "--controller-manager", "/controller_manager", "--param-file", controllers],
+                arguments=[controller, "--controller-manager", "/controller_manager", "--param-file", controllers]
+                + (["--inactive"] if controller in INACTIVE else []),
                 parameters=[sim_time],
             )
         )
