@@ -111,10 +111,20 @@ class _Active:
     tolerances: Tolerances
 
 
-def first_occurrences(goal: Goal | Rejection) -> Goal | Rejection:
+def first_occurrences(goal: Goal | Rejection, joints: int) -> Goal | Rejection:
     """A goal naming a joint twice as JTC reads it: its permutation maps each controller joint to the
-    first occurrence of the name, so later columns are ignored."""
-    if isinstance(goal, Rejection) or len(set(goal.joint_names)) == len(goal.joint_names):
+    first occurrence of the name, so later columns are ignored. A goal naming more joints than the controller's
+    ``joints`` is rejected with INVALID_JOINTS: noetic's goalCB finds no mapping then (internal::mapping refuses a
+    longer list) and answers "Joints on incoming goal don't match the controller joints."."""
+    if isinstance(goal, Rejection):
+        return goal
+    if len(goal.joint_names) > joints:
+        return Rejection(
+            ErrorCode.INVALID_JOINTS,
+            f"Joints on incoming goal don't match the controller joints: {len(goal.joint_names)} names for "
+            f"{joints} joints ({list(goal.joint_names)})",
+        )
+    if len(set(goal.joint_names)) == len(goal.joint_names):
         return goal
     names = list(goal.joint_names)
     keep = [i for i, name in enumerate(names) if names.index(name) == i]
@@ -232,7 +242,7 @@ class JointTrajectoryCore:
         as rclpy's goal callback, asks this first; ``submit`` checks again on the simulation thread)."""
         if not self.running:
             return Rejection(ErrorCode.INVALID_GOAL, "Can't accept new action goals. Controller is not running.")
-        goal = first_occurrences(goal)
+        goal = first_occurrences(goal, len(self.joints))
         if isinstance(goal, Rejection):
             return goal
         if not goal.points and self.semantics.empty_goal_stops:
@@ -246,7 +256,7 @@ class JointTrajectoryCore:
             return self._reject(
                 handle, Rejection(ErrorCode.INVALID_GOAL, "Can't accept new action goals. Controller is not running.")
             )
-        goal = first_occurrences(goal)
+        goal = first_occurrences(goal, len(self.joints))
         rejection = goal if isinstance(goal, Rejection) else self._check(goal)
         if (
             isinstance(goal, Goal)
@@ -294,7 +304,9 @@ class JointTrajectoryCore:
         joints then hold); the adapter answers canceled for any goal still pending or active."""
         if self._active is None or not is_it(self._active.handle):
             return False
-        self._sim.hold(self._active.joints)
+        # Every joint of the controller, not only the goal's: JTC's setHoldPosition (noetic) / set_hold_position
+        # (Jazzy) hold all of them where they are; the joints a partial goal left out may still be on their way.
+        self._sim.hold(self.joints)
         self._active = None
         return True
 
@@ -303,7 +315,7 @@ class JointTrajectoryCore:
         if not self.running:
             self.sink.warn(f"{self.name}/command: Can't accept new commands. Controller is not running.")
             return Rejection(ErrorCode.INVALID_GOAL, "not running")
-        goal = first_occurrences(goal)
+        goal = first_occurrences(goal, len(self.joints))
         if isinstance(goal, Goal) and not goal.points:
             self._preempt("stopped by an empty command")
             self._sim.hold(self.joints)
@@ -430,7 +442,7 @@ class JointTrajectoryCore:
         assert active is not None
         self._active = None
         if hold:
-            self._sim.hold(active.joints)
+            self._sim.hold(self.joints)  # as a cancel: every joint of the controller
         if code == ErrorCode.SUCCESSFUL:
             self.sink.finished(active.handle, Result(Status.SUCCEEDED, code, text))
         else:

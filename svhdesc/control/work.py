@@ -41,3 +41,30 @@ def on_sim_thread(queue: deque, work: Callable[[], Any], timeout: float = 10.0) 
     if not done.wait(timeout) or not box:
         return "the simulation did not answer"
     return box[0]
+
+
+class Latest:
+    """A topic's newest message for the simulation thread, as a subscriber of queue size 1 keeps it (JTC's
+    ``command``, a forward controller's ``commands``): a flood queues one work item at a time and each message
+    replaces the one still waiting, so the queue (and the memory it holds) cannot grow with the flood's rate."""
+
+    def __init__(self, queue: deque, handler: Callable[[Any], Any]) -> None:
+        self._queue = queue
+        self._handler = handler
+        self._waiting: Any = None
+        self._lock = threading.Lock()
+        self.__name__ = getattr(handler, "__name__", "latest")  # drain's error lines name the handler
+
+    def __call__(self, message: Any) -> None:
+        """The transport's thread: keep ``message``, queue the work once."""
+        with self._lock:
+            queued = self._waiting is not None
+            self._waiting = message
+        if not queued:
+            self._queue.append((self._run, None))
+
+    def _run(self, _: Any) -> None:
+        with self._lock:
+            message, self._waiting = self._waiting, None
+        if message is not None:
+            self._handler(message)

@@ -12,7 +12,7 @@ from typing import Any
 
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.trajectory import ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
-from svhdesc.control.work import on_sim_thread
+from svhdesc.control.work import Latest, on_sim_thread
 from svhdesc.model import ACTION
 from svhdesc.ros1.system import synchronous_publisher, time_out_stalled_subscribers
 from svhdesc.sim import Simulation
@@ -95,7 +95,7 @@ class TrajectoryController(ForwardsToCore):
             auto_start=False,
         )
         self._command = rospy.Subscriber(
-            f"{name}/command", JointTrajectory, lambda msg: queue.append((self.on_command, msg)), queue_size=1
+            f"{name}/command", JointTrajectory, Latest(queue, self.on_command), queue_size=1
         )
         self._state = synchronous_publisher(f"{name}/state", msgs.JointTrajectoryControllerState)
         self._state_message = msgs.JointTrajectoryControllerState()

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.control.work import Latest
 from svhdesc.sim import Simulation
 
 
@@ -34,7 +35,7 @@ class VelocityGroupController:
         self._last = sim.time
         self._limits = [sim.limits(j) for j in self.joints]
         self._command = rospy.Subscriber(
-            f"{name}/command", Float64MultiArray, lambda msg: queue.append((self.on_command, msg)), queue_size=1
+            f"{name}/command", Float64MultiArray, Latest(queue, self.on_command), queue_size=1
         )
 
     def on_command(self, msg: Any) -> None:

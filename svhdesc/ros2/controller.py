@@ -11,6 +11,7 @@ simulation thread (node.py drains the queue every control update).
 
 from __future__ import annotations
 
+import re
 import threading
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
@@ -23,6 +24,23 @@ from svhdesc.model import ACTION
 from svhdesc.sim import Simulation
 
 UNKNOWN = "<not a joint of this controller>:"  # an unknown name can never match a simulation joint
+# Requests (goals, cancels, result requests) DDS keeps for the node before rclpy's executor takes them. rclpy's (and
+# rcl_action's) default service QoS keeps the last 10 (KEEP_LAST, reliable); a burst overflowed the goal service's
+# reader and DDS dropped the oldest requests unseen (300 goals at once: 19 reached the node). Goal requests are
+# small: 1000 queued hold about 1 MB.
+REQUEST_DEPTH = 1000
+
+
+def request_qos() -> Any:
+    """The services' default QoS (reliable, volatile, KEEP_LAST) with REQUEST_DEPTH."""
+    from rclpy.qos import QoSProfile, qos_profile_services_default
+
+    return QoSProfile(
+        history=qos_profile_services_default.history,
+        depth=REQUEST_DEPTH,
+        reliability=qos_profile_services_default.reliability,
+        durability=qos_profile_services_default.durability,
+    )
 
 
 def seconds(value: Any) -> float:
@@ -89,7 +107,6 @@ class TrajectoryController(ForwardsToCore):
         from builtin_interfaces.msg import Time
         from control_msgs.action import FollowJointTrajectory
         from control_msgs.msg import JointTrajectoryControllerState
-        from rclpy.action import ActionServer
         from rclpy.task import Future
 
         self._Time, self._Action, self._Future = Time, FollowJointTrajectory, Future
@@ -118,14 +135,22 @@ class TrajectoryController(ForwardsToCore):
         self._state_message = JointTrajectoryControllerState()
         self._feedback_message = FollowJointTrajectory.Feedback()
         self._state = node.create_publisher(JointTrajectoryControllerState, f"{name}/controller_state", 10)
-        self._server = ActionServer(
+        self._server = self._action_server(node, callback_group)
+
+    def _action_server(self, node: Any, callback_group: Any) -> Any:
+        from control_msgs.action import FollowJointTrajectory
+        from rclpy.action import ActionServer
+
+        requests = {f"{kind}_service_qos_profile": request_qos() for kind in ("goal", "result", "cancel")}
+        return ActionServer(
             node,
             FollowJointTrajectory,
-            f"{name}/{ACTION}",  # relative: a node started in a namespace serves there
+            f"{self.name}/{ACTION}",  # relative: a node started in a namespace serves there
             execute_callback=self._execute,
             goal_callback=self._on_goal_request,
             cancel_callback=self._on_cancel,
             callback_group=callback_group,
+            **requests,
         )
 
     # -- rclpy's executor thread -------------------------------------------------------------
@@ -162,6 +187,9 @@ class TrajectoryController(ForwardsToCore):
 
     # -- the simulation thread ---------------------------------------------------------------
     def on_goal(self, goal: _Goal) -> None:
+        if goal.goal_handle.is_cancel_requested:  # canceled before it reached the simulation: it never starts
+            self._resolve(goal, Status.CANCELED, ErrorCode.SUCCESSFUL, "")
+            return
         self.core.submit(trajectory_goal(goal.goal_handle.request, self._to_sim), goal)
 
     def on_cancel(self, goal_handle: Any) -> None:
@@ -170,10 +198,12 @@ class TrajectoryController(ForwardsToCore):
             self._resolve(active, Status.CANCELED, ErrorCode.SUCCESSFUL, "")
 
     def _renamed(self, text: str) -> str:
-        """The core's texts name the simulation's joints: say the ROS 2 driver's names."""
+        """The core's texts name the simulation's joints: say the ROS 2 driver's names. A name the goal gave that is
+        not a joint here (UNKNOWN + the name) is said as the client sent it: a ROS 1 name such as
+        ``right_hand_Pinky`` must not turn into the ROS 2 joint it is mistaken for."""
         for joint in sorted(self._to_ros, key=len, reverse=True):
-            text = text.replace(joint, self._to_ros[joint])
-        return text
+            text = re.sub(rf"(?<![\w:]){re.escape(joint)}(?!\w)", self._to_ros[joint], text)
+        return text.replace(UNKNOWN, "")
 
     def _resolve(self, goal: _Goal, status: Status, code: ErrorCode, text: str) -> None:
         result = self._Action.Result(error_code=int(code), error_string=self._renamed(text))

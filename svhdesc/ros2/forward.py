@@ -13,6 +13,7 @@ from typing import Any
 
 from svhdesc.control.forward import JAZZY_FORWARD, ForwardCommandCore, Servos
 from svhdesc.control.trajectory import ForwardsToCore
+from svhdesc.control.work import Latest
 from svhdesc.ros2.system import log_at
 
 
@@ -32,7 +33,7 @@ class ForwardController(ForwardsToCore):
         self._subscription = node.create_subscription(
             Float64MultiArray,
             f"{name}/commands",  # relative to the node: ~/commands of a controller node named <name>
-            lambda message: queue.append((self.on_command, message)),
+            Latest(queue, self.on_command),
             qos_profile_system_default,
             callback_group=callback_group,
         )

@@ -1,4 +1,5 @@
-"""benchmarks/sim_bench_ros2.py on bad input: one ``error:`` line, exit 2, nothing written, before anything starts.
+"""benchmarks/sim_bench_ros2.py and ros2_goal_burst.py on bad input: one ``error:`` line, exit 2, nothing written,
+before anything starts.
 
 Seeded fault: main's BenchError handler removed (the exception let through) -> each case fails with a traceback.
 """
@@ -13,23 +14,28 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-SCRIPT = REPO / "benchmarks" / "sim_bench_ros2.py"
-PAGE = REPO / "docs" / "results" / "node_speed_ros2.md"
+SPEED = (REPO / "benchmarks" / "sim_bench_ros2.py", REPO / "docs" / "results" / "node_speed_ros2.md")
+BURST = (REPO / "benchmarks" / "ros2_goal_burst.py", REPO / "docs" / "results" / "ros2_goal_burst.md")
+NO_PYTHON = {"SVHDESC_ROS2_PYTHON": "/nonexistent/python"}
 
 
 @pytest.mark.parametrize(
-    ("args", "env", "words"),
+    ("script", "args", "env", "words"),
     [
-        (["soon"], {}, "WINDOW must be a number"),
-        (["0"], {}, "WINDOW must be positive"),
-        (["1", "no_such_variant"], {}, "unknown variant(s) no_such_variant"),
-        (["1", "svh_right"], {"SVHDESC_ROS2_PYTHON": "/nonexistent/python"}, "no ROS 2 Python at /nonexistent/python"),
+        (SPEED, ["soon"], {}, "WINDOW must be a number"),
+        (SPEED, ["0"], {}, "WINDOW must be positive"),
+        (SPEED, ["1", "no_such_variant"], {}, "unknown variant(s) no_such_variant"),
+        (SPEED, ["1", "svh_right"], NO_PYTHON, "no ROS 2 Python at /nonexistent/python"),
+        (BURST, ["many"], {}, "COUNT must be a whole number"),
+        (BURST, ["2"], {}, "COUNT must be between 3 and 5000"),
+        (BURST, ["30"], NO_PYTHON, "no ROS 2 Python at /nonexistent/python"),
     ],
 )
-def test_bad_input_one_error_line(args: list[str], env: dict[str, str], words: str) -> None:
-    before = PAGE.stat().st_mtime_ns if PAGE.exists() else None
+def test_bad_input_one_error_line(script: tuple[Path, Path], args: list[str], env: dict[str, str], words: str) -> None:
+    path, page = script
+    before = page.stat().st_mtime_ns if page.exists() else None
     result = subprocess.run(
-        [sys.executable, str(SCRIPT), *args],
+        [sys.executable, str(path), *args],
         capture_output=True,
         text=True,
         env={**os.environ, "PYTHONPATH": str(REPO), **env},
@@ -39,4 +45,4 @@ def test_bad_input_one_error_line(args: list[str], env: dict[str, str], words: s
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2, result.stderr
     assert len(lines) == 1 and lines[0].startswith("error:") and words in lines[0], result.stderr
-    assert (PAGE.stat().st_mtime_ns if PAGE.exists() else None) == before
+    assert (page.stat().st_mtime_ns if page.exists() else None) == before

@@ -95,6 +95,19 @@ def test_a_repeated_joint_is_accepted_and_its_first_column_wins(
     assert sim.desired([joint]).positions[0] == pytest.approx(first)
 
 
+def test_more_names_than_joints_are_invalid_joints(core: tuple[Simulation, JointTrajectoryCore, Recorder]) -> None:
+    """Issue 39: every channel and one of them again (10 names for 9 joints) is INVALID_JOINTS, as noetic's goalCB
+    (its mapping refuses a list longer than the controller's), also on the command topic. Seeded fault: the check
+    removed from first_occurrences -> accepted."""
+    sim, controller, sink = core
+    names = [*controller.joints, controller.joints[0]]
+    here = [float(v) for v in sim.desired(names).positions]
+    rejection = controller.submit(Goal(names, [Point(0.5, tuple(here))]), "h")
+    assert rejection is not None and rejection.code is ErrorCode.INVALID_JOINTS, rejection
+    assert "don't match the controller joints" in rejection.reason
+    assert controller.command(Goal(names, [Point(0.5, tuple(here))])) is not None
+
+
 def test_query_before_the_trajectory_start_fails(core: tuple[Simulation, JointTrajectoryCore, Recorder]) -> None:
     """As JTC's query_state: a time before the current trajectory (or hold) began is refused. Seeded
     fault: the former query answered any time."""

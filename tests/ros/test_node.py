@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 import svhdesc
+from svhdesc.model import DRIVER_CHANNELS
 from svhdesc.ros1.system import ros_available
 from tests.rosmaster import master, shut_down_if_it_dies, simple_action_client, stop, svhdesc_executable, wait_for
 from tests.support import REPO, run_cli
@@ -29,6 +30,14 @@ pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-ro
 VARIANT = "ur5_svh_right"
 HAND = "right_hand_controller"
 ARM = "scaled_pos_joint_traj_controller"
+ARM_JOINTS = [
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+]
 GOAL_MD5 = "cff5c1d533bf2f82dd0138d57f4304bb"  # control_msgs/FollowJointTrajectoryActionGoal on ROS 1
 
 
@@ -162,14 +171,7 @@ def test_home_to_test_on_arm_and_hand(ros: dict[str, Any]) -> None:
     from actionlib_msgs.msg import GoalStatus
 
     test = _keyframe("test")
-    arm = [
-        "shoulder_pan_joint",
-        "shoulder_lift_joint",
-        "elbow_joint",
-        "wrist_1_joint",
-        "wrist_2_joint",
-        "wrist_3_joint",
-    ]
+    arm = ARM_JOINTS
     hand = [n for n in test if n.startswith("right_hand_")]
     assert len(hand) == 9
     clients = {}
@@ -197,6 +199,7 @@ def test_bad_goals_are_rejected_with_jtc_error_codes(ros: dict[str, Any]) -> Non
 
     result = ros["msgs"].FollowJointTrajectoryResult
     wait_for(lambda: ros["rospy"].Time.now().to_sec() > 1.0, 30, "one simulated second")
+    channels = [f"right_hand_{c}" for c in DRIVER_CHANNELS]
     old = _goal(ros, ["right_hand_Pinky"], [[0.1]], [0.5])
     old.trajectory.header.stamp = ros["rospy"].Time.from_sec(0.1)  # ended at t = 0.6 s
     # noetic's JTC never answers OLD_HEADER_TIMESTAMP: all points in the past is INVALID_GOAL.
@@ -209,6 +212,9 @@ def test_bad_goals_are_rejected_with_jtc_error_codes(ros: dict[str, Any]) -> Non
         (HAND, _goal(ros, ["right_hand_Pinky", "right_hand_Ring_Finger"], [[0.1]], [1.0]), result.INVALID_GOAL),
         (HAND, old, result.INVALID_GOAL),
         (HAND, _goal(ros, ["right_hand_Pinky"], [[0.1], [0.2]], [1.0, 1.0]), result.INVALID_GOAL),  # not increasing
+        # more names than joints (a channel twice; an arm joint twice): noetic's mapping fails (issue 39)
+        (HAND, _goal(ros, [*channels, channels[0]], [[0.1] * 10], [1.0]), result.INVALID_JOINTS),
+        (ARM, _goal(ros, [*ARM_JOINTS, ARM_JOINTS[0]], [[0.0] * 7], [1.0]), result.INVALID_JOINTS),
     ]
     for controller, goal, code in cases:
         state, outcome = _send(ros, controller, goal)
@@ -229,14 +235,7 @@ def test_tolerance_violations_abort(ros: dict[str, Any]) -> None:
     tolerance = ros["msgs"].JointTolerance
     result = ros["msgs"].FollowJointTrajectoryResult
     positions = _positions(ros)
-    arm = [
-        "shoulder_pan_joint",
-        "shoulder_lift_joint",
-        "elbow_joint",
-        "wrist_1_joint",
-        "wrist_2_joint",
-        "wrist_3_joint",
-    ]
+    arm = ARM_JOINTS
     start = [positions[j] for j in arm]
     moved = [start[0] - 0.3, *start[1:]]
     goal = _goal(ros, arm, [moved], [1.0], path_tolerance=[tolerance(name="shoulder_pan_joint", position=1e-5)])

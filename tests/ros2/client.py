@@ -6,6 +6,7 @@ files: ros2/config/ros2_controllers.yaml and ros2/mujoco/<variant>.xml).
     python client.py --die VARIANT_DIR CONTROLLER   # send a long goal, print "accepted", kill itself (SIGKILL)
     python client.py --recording FILE.mcap OUT.json # read the node's recording back with rosbags
     python client.py --tracker VARIANT_DIR OUT.json BODY...   # tracked/<body> poses, the forward controller driving
+    python client.py --burst VARIANT_DIR OUT.json COUNT DEPTH  # COUNT goals at once, client services of DEPTH
 
 Runs inside the test's private network namespace with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST. Every wait is on
 simulated time (/clock) or on an answer, bounded by a generous wall-clock timeout.
@@ -337,6 +338,7 @@ def malformed(c: Client) -> dict[str, bool]:
         "stale stamp": c.goal(joints, [(1.0, ok)], stamp=Time(sec=0, nanosec=1000)),
         "position outside limits": c.goal(joints, [(1.0, [v + 10.0 for v in ok])]),
         "nan position": c.goal(joints, [(1.0, [float("nan")] * len(joints))]),
+        "a channel twice": c.goal([*joints, joints[0]], [(1.0, [*ok, ok[0]])]),
     }
     found = {case: c.send(c.hand, goal).accepted for case, goal in cases.items()}
     if ARM in c.trajectory:
@@ -360,6 +362,17 @@ def preempt_and_cancel(c: Client) -> dict[str, Any]:
     canceled = wait(c.result(third))
     before = c.at(start + 1.5)  # uncanceled, the fingers would move on until start + 3 s
     after = c.at(start + 2.0)
+    # A partial goal canceled while the joints it leaves out still close on the command they kept (issue 39): every
+    # joint holds where it is, as JTC's set_hold_position. From the result's arrival on, 1.5 simulated s.
+    whole = c.send(c.hand, c.goal(joints, [(2.0, c.target(0.3, joints))]))
+    c.sleep(0.4)
+    partial = c.send(c.hand, c.goal(joints[-2:], [(3.0, c.target(0.05, joints[-2:]))]))
+    c.sleep(0.1)
+    wait(c.asked(partial.cancel_goal_async))
+    partial_result = wait(c.result(partial))
+    wait(c.result(whole))
+    answered = c.latest()  # the newest state when the result came: the cancel was worked at or before it
+    held, settled = c.at(answered), c.at(answered + 1.5)
     return {
         "preempted": {
             "status": STATUS.get(ended.status, ended.status),
@@ -370,6 +383,8 @@ def preempt_and_cancel(c: Client) -> dict[str, Any]:
         "cancel_accepted": len(cancel.goals_canceling) == 1,
         "canceled": {"status": STATUS.get(canceled.status, canceled.status), "code": canceled.result.error_code},
         "moved_after_cancel": max(abs(after[j] - before[j]) for j in joints),
+        "partial_canceled": STATUS.get(partial_result.status, partial_result.status),
+        "drift_after_partial_cancel": {j: abs(settled[j] - held[j]) for j in joints},
         "short_of_target": max(abs(after[j] - t) for j, t in zip(joints, target)),
     }
 
@@ -384,7 +399,7 @@ def tolerances(c: Client) -> dict[str, Any]:
 def burst(c: Client, count: int = 1000) -> dict[str, Any]:
     joints = c.trajectory[c.hand]
     bad = c.goal([*joints[:-1], "no_such_joint"], [(1.0, c.target(0.1, joints))])
-    accepted, window = 0, 10  # at most the goal service's QoS depth (10) in flight: DDS drops what overflows it
+    accepted, window = 0, 10  # at most the client services' default depth (10) in flight: DDS drops the rest
     for _ in range(count // window):
         futures = [c.asked(lambda: c.actions[c.hand].send_goal_async(bad)) for _ in range(window)]
         accepted += sum(wait(f).accepted for f in futures)
@@ -392,6 +407,71 @@ def burst(c: Client, count: int = 1000) -> dict[str, Any]:
     after = c.run(c.hand, c.goal(joints, [(0.5, c.target(0.1, joints))]))
     c.sleep(0.2)
     return {"sent": count, "accepted": accepted, "after": after, "clock_advanced": c.now() > start}
+
+
+def true_burst(c: Client, count: int = 300, depth: int = 1000) -> dict[str, Any]:
+    """``count`` goals sent at once (every third naming an unknown joint, the others valid 0.5 s goals, each
+    preempting the one before) by an ActionClient whose services keep ``depth`` samples (rclpy's default: 10); sent
+    from the executor's thread in one go, so no answer is taken before the last request is out. Counts the goal
+    responses and the results of the accepted goals, waiting until 5 wall s pass with nothing new."""
+    from rclpy.qos import QoSProfile, qos_profile_services_default
+
+    default = qos_profile_services_default
+    qos = QoSProfile(
+        history=default.history, depth=depth, reliability=default.reliability, durability=default.durability
+    )
+    client = ActionClient(
+        c.node,
+        FollowJointTrajectory,
+        f"/{c.hand}/follow_joint_trajectory",
+        goal_service_qos_profile=qos,
+        result_service_qos_profile=qos,
+        cancel_service_qos_profile=qos,
+    )
+    if not client.wait_for_server(timeout_sec=WALL):
+        raise TimeoutError("no action server")
+    joints = c.trajectory[c.hand]
+    valid = c.goal(joints, [(0.5, c.target(0.1, joints))])
+    bad = c.goal([*joints[:-1], "no_such_joint"], [(0.5, c.target(0.1, joints))])
+    lock = threading.Lock()
+    responses: list[bool] = []
+    results: list[int] = []
+
+    def on_result(future: Any) -> None:
+        with lock:
+            results.append(future.result().status)
+
+    def on_response(future: Any) -> None:
+        handle = future.result()
+        with lock:
+            responses.append(handle.accepted)
+        if handle.accepted:
+            handle.get_result_async().add_done_callback(on_result)
+
+    def send() -> float:
+        began = time.perf_counter()
+        for k in range(count):
+            client.send_goal_async(bad if k % 3 == 2 else valid).add_done_callback(on_response)
+        return time.perf_counter() - began
+
+    took = wait(c.executor.create_task(send))
+    seen, quiet = (-1, -1), time.monotonic()
+    while time.monotonic() - quiet < 5.0:
+        time.sleep(0.2)
+        with lock:
+            now = (len(responses), len(results))
+        if now != seen:
+            seen, quiet = now, time.monotonic()
+    with lock:
+        return {
+            "sent": count,
+            "malformed": count // 3,
+            "depth": depth,
+            "send_seconds": round(took, 4),
+            "responses": len(responses),
+            "accepted": sum(responses),
+            "results": len(results),
+        }
 
 
 def killed_client(c: Client, variant_dir: Path) -> dict[str, Any]:
@@ -559,6 +639,11 @@ def main() -> None:
     if sys.argv[1] == "--die":
         die(Path(sys.argv[2]), sys.argv[3])
         return
+    if sys.argv[1] == "--burst":  # --burst VARIANT_DIR REPORT.json COUNT DEPTH (the action server alone is needed)
+        c = Client(Path(sys.argv[2]))
+        Path(sys.argv[3]).write_text(json.dumps(true_burst(c, int(sys.argv[4]), int(sys.argv[5]))))
+        sys.stdout.flush()
+        os._exit(0)
     if sys.argv[1] == "--tracker":  # --tracker VARIANT_DIR REPORT.json BODY...
         c = Client(Path(sys.argv[2]))
         c.ready()
@@ -582,6 +667,7 @@ def main() -> None:
         ("preempt_and_cancel", lambda: preempt_and_cancel(c)),
         ("tolerances", lambda: tolerances(c)),
         ("burst", lambda: burst(c)),
+        ("true_burst", lambda: true_burst(c)),
         ("killed_client", lambda: killed_client(c, variant_dir)),
         ("switching", lambda: switching(c)),
         ("forward", lambda: forward(c)),
