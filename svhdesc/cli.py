@@ -177,8 +177,8 @@ def build_command(
     force: bool,
 ) -> None:
     """Build VARIANTS (all by default) into OUT/<variant>/."""
-    from svhdesc.compiler.build.freshness import stale_variants
-    from svhdesc.compiler.build.outdir import tidy
+    from svhdesc.compiler.pipeline.freshness import stale_variants
+    from svhdesc.compiler.pipeline.outdir import tidy
 
     if jobs < 0:
         raise SvhdescError(f"--jobs must be >= 0 (0: one per CPU), got {jobs}")
@@ -196,10 +196,10 @@ def build_command(
         return
 
     require_extra("build", "'svhdesc build'")
-    from svhdesc.compiler.build import builder as builder
-    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose import HullCache
     from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.pipeline import builder as builder
+    from svhdesc.compiler.pipeline.timings import Timings
 
     # The progress bar shows only on a terminal (HullSource checks); CI logs stay quiet.
     hulls = HullSource(HullCache(default_cache_dir()), jobs=jobs, force=rebuild_collisions, progress=True)
@@ -270,10 +270,10 @@ def list_command(config_path: Path | None) -> None:
 @_friendly
 def info_command(variant: str, config_path: Path | None, packages: tuple[str, ...]) -> None:
     """DoF, actuators, masses and the coupling matrix S_m of VARIANT."""
-    from svhdesc.compiler.build.pipeline import compile_variants
-    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose import HullCache
     from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.pipeline.steps import compile_variants
+    from svhdesc.compiler.pipeline.timings import Timings
     from svhdesc.core.settings.coupling import coupling_matrix
 
     config, package_dirs = _load(config_path, packages)

@@ -131,10 +131,10 @@ def stop_build(run: Path) -> None:
 def compiled_variant(config: Path, cache: Path) -> tuple[Any, Any]:
     """The config's one variant compiled in this process as ``svhdesc build`` compiles it (hull cache ``cache``,
     seeded from generated/, nothing from an output folder), and the hull source (its ``counts``)."""
-    from svhdesc.compiler.build.pipeline import compile_variants
-    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose import HullCache
     from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.pipeline.steps import compile_variants
+    from svhdesc.compiler.pipeline.timings import Timings
 
     hulls = HullSource(HullCache(cache))
     hulls.seed_from_outputs(sorted(p for p in (REPO / "generated").iterdir() if p.is_dir()))
@@ -148,9 +148,9 @@ def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, b
     bytes ``svhdesc build --config CONFIG`` writes to those files. For the tests of what a setting does to the URDF
     and the MJCF: the outputs a build samples in MuJoCo (SRDF, batch model; about 12 s for each new model) are not
     made. ``into``: also written there as a build writes them, with the assets (``into``/assets/)."""
-    from svhdesc.compiler.build.freshness import svhdesc_version
     from svhdesc.compiler.decompose.source import default_cache_dir
     from svhdesc.compiler.export.registry import OUTPUTS, Built
+    from svhdesc.compiler.pipeline.freshness import svhdesc_version
 
     compiled, _ = compiled_variant(config, default_cache_dir())
     built = Built(compiled.robot, compiled.assets, config.parent, svhdesc_version())

@@ -394,7 +394,7 @@ def _polygon(support: Sequence[float]) -> np.ndarray:
     other last bits on an AVX-512 CPU than on an AVX2 one, and the clipping downstream turned that into another
     triangulation of every fitted part (issue 14); so did a 4-ulp nudge of the directions, so they are not snapped
     or perturbed: the C library's cos/sin of these angles are the same bits with and without FMA
-    (tests/compiler/build/test_determinism.py runs this script as other CPUs), and the solve is LAPACK's
+    (tests/compiler/pipeline/test_determinism.py runs this script as other CPUs), and the solve is LAPACK's
     partial-pivoting LU in plain IEEE arithmetic (no FMA), which reproduces the committed meshes' bits."""
     n = len(support)
     angles = [math.radians(k * 360.0 / n) for k in range(n)]

@@ -644,7 +644,7 @@ def test_a_staged_file_is_named_by_where_it_goes() -> None:
     the path as given)."""
     import errno
 
-    from svhdesc.compiler.build.outdir import fs_error
+    from svhdesc.compiler.pipeline.outdir import fs_error
 
     staged = "/tmp/out/.svhdesc-build-x1y2/svh_right/assets/a_hull_00.obj"
     error = fs_error(Path("/tmp/out"), OSError(errno.ENOSPC, "No space", staged))

@@ -96,8 +96,8 @@ def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
 
 def hull_caps(variant: str) -> dict[str, int]:
     """Link -> max_convex_hull of its decomposition, as the config resolves it (classes, then per-link overrides)."""
-    from svhdesc.compiler.build.pipeline import plan_variant
-    from svhdesc.compiler.build.timings import Timings
+    from svhdesc.compiler.pipeline.steps import plan_variant
+    from svhdesc.compiler.pipeline.timings import Timings
     from svhdesc.core.settings.config import load_config
 
     selected = load_config(REPO / "config" / "svhdesc.yaml").select([variant])[0]

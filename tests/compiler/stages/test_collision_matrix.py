@@ -28,16 +28,16 @@ def test_a_pair_settles_once_no_remaining_sample_can_make_it_always() -> None:
 def test_rounds_give_the_matrix_of_one_round(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """svh_right, 600 samples: in rounds of 100 (later rounds leaving pairs out) and in one round, the same matrix
     (seeded fault: each round drawing from a new generator of the same seed -> the matrices differ)."""
-    from svhdesc.compiler.build import pipeline
-    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose.cache import HullCache
     from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.pipeline import steps
+    from svhdesc.compiler.pipeline.timings import Timings
     from svhdesc.core.settings.config import load_config
 
     hulls = HullSource(HullCache(tmp_path / "hulls"))
     hulls.seed_from_outputs([REPO / "generated" / "svh_right"])
     config = load_config(REPO / "config" / "svhdesc.yaml")
-    (compiled,) = pipeline.compile_variants(config, ["svh_right"], {}, hulls, Timings())
+    (compiled,) = steps.compile_variants(config, ["svh_right"], {}, hulls, Timings())
     left_out: list[int] = []
     real = collision_matrix._sample
 

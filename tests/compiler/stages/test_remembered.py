@@ -89,17 +89,15 @@ def test_collision_matrix_entry_is_the_computed_matrix(tmp_path: Path, monkeypat
     robot is computed again."""
     from dataclasses import replace
 
-    from svhdesc.compiler.build import pipeline
-    from svhdesc.compiler.build.timings import Timings
     from svhdesc.compiler.decompose.cache import HullCache
     from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.pipeline import steps
+    from svhdesc.compiler.pipeline.timings import Timings
     from svhdesc.core.settings.config import load_config
 
     monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path / "cache"))
     hulls = HullSource(HullCache(tmp_path / "hulls"))
-    (compiled,) = pipeline.compile_variants(
-        load_config(TESTS / "data" / "mini" / "mini.yaml"), [], {}, hulls, Timings()
-    )
+    (compiled,) = steps.compile_variants(load_config(TESTS / "data" / "mini" / "mini.yaml"), [], {}, hulls, Timings())
     computed: list[dict[tuple[str, str], str]] = []
     real = collision_matrix.collision_matrix
     monkeypatch.setattr(collision_matrix, "collision_matrix", lambda *a: computed.append(real(*a)) or computed[-1])

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from svhdesc.compiler.build.agreement import file_difference
+from svhdesc.compiler.pipeline.agreement import file_difference
 from svhdesc.core.source.meshes import (
     MeshError,
     convex_hull,

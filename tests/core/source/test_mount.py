@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from svhdesc.compiler.build.pipeline import read_source
-from svhdesc.compiler.build.timings import Timings
+from svhdesc.compiler.pipeline.steps import read_source
+from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.core.settings.config import load_config
 from svhdesc.core.settings.schema import Mount
 from svhdesc.core.source.mount import graft

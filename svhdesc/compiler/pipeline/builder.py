@@ -5,13 +5,13 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from svhdesc.compiler.build.agreement import file_difference, manifest_difference
-from svhdesc.compiler.build.freshness import portable, sha256, svhdesc_version, tool_versions
-from svhdesc.compiler.build.outdir import output_directory, publish, require_exchange
-from svhdesc.compiler.build.pipeline import Compiled, compile_variants
-from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built
+from svhdesc.compiler.pipeline.agreement import file_difference, manifest_difference
+from svhdesc.compiler.pipeline.freshness import portable, sha256, svhdesc_version, tool_versions
+from svhdesc.compiler.pipeline.outdir import output_directory, publish, require_exchange
+from svhdesc.compiler.pipeline.steps import Compiled, compile_variants
+from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.core import manifest as manifest_file
 from svhdesc.core.settings.config import Config
 from svhdesc.paths import models_dir
@@ -90,7 +90,7 @@ def build(
 ) -> list[str]:
     """Build into a staging directory in ``out``, then swap each variant in whole; returns variant names.
 
-    See ``svhdesc.compiler.build.outdir``: one build per ``out`` at a time, crash-safe swaps.
+    See ``svhdesc.compiler.pipeline.outdir``: one build per ``out`` at a time, crash-safe swaps.
     """
     timings = timings or Timings()
     with output_directory(out) as staging:

@@ -1,5 +1,5 @@
 """Outputs do not depend on the CPU: CPU-independent arithmetic, and --check's numeric tolerance
-(svhdesc.compiler.build.agreement).
+(svhdesc.compiler.pipeline.agreement).
 
 No second machine here, so the tests perturb the computation by a few ulps (SVHDESC_PERTURB_ULPS), which is what
 another CPU's kernels would do, and show --check still passes; and they move one written number by 1e-9 of itself,
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from svhdesc.compiler.build.agreement import RTOL, TEXT_SUFFIXES, file_difference, text_difference
+from svhdesc.compiler.pipeline.agreement import RTOL, TEXT_SUFFIXES, file_difference, text_difference
 from svhdesc.core import exact
 from tests.support import HULL_CHECK, REPO, run_cli
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import svhdesc
-from svhdesc.compiler.build import freshness
+from svhdesc.compiler.pipeline import freshness
 
 PACKAGE = Path(svhdesc.__file__).resolve().parent
 

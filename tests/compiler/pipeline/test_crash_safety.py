@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from svhdesc.compiler.build.outdir import NO_EXCHANGE_ENV, PAUSE_ENV, STAGING_PREFIX, recover
+from svhdesc.compiler.pipeline.outdir import NO_EXCHANGE_ENV, PAUSE_ENV, STAGING_PREFIX, recover
 from tests.support import REPO, fails_cleanly, run_cli, snapshot
 
 

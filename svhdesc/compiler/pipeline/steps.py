@@ -19,8 +19,8 @@ from typing import Any
 
 from lxml import etree
 
-from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose.source import HullSource
+from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import collision_rules

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from svhdesc.compiler.build import pipeline
-from svhdesc.compiler.build.builder import write_variant
-from svhdesc.compiler.build.timings import Timings
 from svhdesc.compiler.decompose import HullCache
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import OUTPUTS
+from svhdesc.compiler.pipeline import steps
+from svhdesc.compiler.pipeline.builder import write_variant
+from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.core.settings.config import load_config
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
@@ -22,15 +22,15 @@ from tests.support import TESTS
 MINI = TESTS / "data" / "mini" / "mini.yaml"
 
 
-def compiled(tmp_path: Path) -> list[pipeline.Compiled]:
+def compiled(tmp_path: Path) -> list[steps.Compiled]:
     hulls = HullSource(HullCache(tmp_path / "hulls"))
-    return list(pipeline.compile_variants(load_config(MINI), [], {}, hulls, Timings()))
+    return list(steps.compile_variants(load_config(MINI), [], {}, hulls, Timings()))
 
 
 def test_collision_rules_are_decided_once_per_variant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     decided = []
-    rules = pipeline.collision_rules
-    monkeypatch.setattr(pipeline, "collision_rules", lambda *args: decided.append(rules(*args)) or decided[-1])
+    rules = steps.collision_rules
+    monkeypatch.setattr(steps, "collision_rules", lambda *args: decided.append(rules(*args)) or decided[-1])
     (result,) = compiled(tmp_path)
     assert len(decided) == 1  # the plan's rules serve the prefetch and the compile
     assert result.plan.meshes.rules is decided[0] and "right_hand_t" in decided[0]
@@ -39,10 +39,10 @@ def test_collision_rules_are_decided_once_per_variant(tmp_path: Path, monkeypatc
 def test_checks_run_after_every_processor(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A check sees the finished model (world, sensor, keyframes), and nothing simulates a model that failed one."""
     seen: list[Robot] = []
-    monkeypatch.setattr(pipeline, "CHECKS", (pipeline.Check(seen.append),))
+    monkeypatch.setattr(steps, "CHECKS", (steps.Check(seen.append),))
     probed = []
     monkeypatch.setattr(
-        pipeline, "SIMULATED", (pipeline.Processor("exclusions", lambda r, a, s: probed.append(r) or r, lambda p: 0),)
+        steps, "SIMULATED", (steps.Processor("exclusions", lambda r, a, s: probed.append(r) or r, lambda p: 0),)
     )
     compiled(tmp_path)
     assert seen[0].physics.timestep == 0.001 and seen[0].sensors and seen[0].keyframes and probed
@@ -51,7 +51,7 @@ def test_checks_run_after_every_processor(tmp_path: Path, monkeypatch: pytest.Mo
         raise SvhdescError("refused")
 
     probed.clear()
-    monkeypatch.setattr(pipeline, "CHECKS", (pipeline.Check(refuse),))
+    monkeypatch.setattr(steps, "CHECKS", (steps.Check(refuse),))
     with pytest.raises(SvhdescError, match="refused"):
         compiled(tmp_path)
     assert probed == []

@@ -1,1 +1,0 @@
-"""svhdesc/compiler/build"""
