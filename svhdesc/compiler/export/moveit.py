@@ -8,8 +8,8 @@ from collections.abc import Mapping
 
 from lxml import etree
 
-from svhdesc.compiler.export.ros import GENERATED, dump_yaml
 from svhdesc.compiler.export.xmlfmt import num, serialise, sub
+from svhdesc.compiler.export.yamlfmt import GENERATED, dump_yaml
 from svhdesc.ir import Robot
 from svhdesc.model import (
     ACTION,

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
-from svhdesc.compiler.export import batch, launch2, ros2, ros2_control
+from svhdesc.compiler.export import batch, ros2, ros2_control, ros2_launch
 from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
 from svhdesc.compiler.export.moveit import (
     export_joint_limits,
@@ -22,7 +22,7 @@ from svhdesc.compiler.export.moveit import (
     planning_groups,
 )
 from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
-from svhdesc.compiler.export.ros import export_connector, export_launch, export_node_script
+from svhdesc.compiler.export.ros1 import export_connector, export_launch, export_node_script
 from svhdesc.compiler.export.urdf import export_urdf
 from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.batch_sizing import cached_capacities
@@ -111,8 +111,8 @@ OUTPUTS: tuple[Output, ...] = (
     Output("ros2/mujoco/{robot}.xml", lambda b: ros2_control.export_mujoco_model(b.ros2)),
     Output("ros2/mujoco/scene.xml", lambda b: ros2_control.export_mujoco_scene(b.ros2)),
     Output("ros2/config/ros2_controllers.yaml", lambda b: ros2.export_controllers(b.ros2)),
-    Output("ros2/launch/sim.launch.py", lambda b: launch2.export_sim_launch(b.ros2)),
-    Output("ros2/launch/svhdesc.launch.py", lambda b: launch2.export_svhdesc_launch(b.ros2)),
+    Output("ros2/launch/sim.launch.py", lambda b: ros2_launch.export_sim_launch(b.ros2)),
+    Output("ros2/launch/svhdesc.launch.py", lambda b: ros2_launch.export_svhdesc_launch(b.ros2)),
     Output(
         "ros2/config/{robot}.srdf",
         lambda b: export_srdf(b.ros2, cached_collision_matrix(b.robot, b.assets)),
@@ -121,7 +121,7 @@ OUTPUTS: tuple[Output, ...] = (
     Output("ros2/config/kinematics.yaml", lambda b: export_kinematics(b.ros2), _moveit),
     Output("ros2/config/joint_limits.yaml", lambda b: export_joint_limits(b.ros2), _moveit),
     Output("ros2/config/moveit_controllers.yaml", lambda b: ros2.export_moveit_controllers(b.ros2), _moveit),
-    Output("ros2/launch/moveit.launch.py", lambda b: launch2.export_moveit_launch(b.ros2), _moveit),
+    Output("ros2/launch/moveit.launch.py", lambda b: ros2_launch.export_moveit_launch(b.ros2), _moveit),
     Output(batch_model_file("{robot}"), _batch_model, stage="batch"),
     Output(BATCH_SCENE_FILE, lambda b: batch.export_batch_scene(b.robot), stage="batch"),
 )

@@ -15,8 +15,8 @@ from lxml import etree
 
 from svhdesc.compiler.export.moveit import arm_joints, hand_prefix
 from svhdesc.compiler.export.package import package_name
-from svhdesc.compiler.export.ros import GENERATED, dump_yaml
 from svhdesc.compiler.export.xmlfmt import serialise, sub
+from svhdesc.compiler.export.yamlfmt import GENERATED, dump_yaml
 from svhdesc.ir import Robot
 from svhdesc.model import (
     ACTION,

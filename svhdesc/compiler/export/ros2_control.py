@@ -13,10 +13,10 @@ from lxml import etree
 
 from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
 from svhdesc.compiler.export.package import package_name
-from svhdesc.compiler.export.ros import GENERATED
 from svhdesc.compiler.export.ros2 import COMMAND_INTERFACES, FOLDER, STATE_INTERFACES
 from svhdesc.compiler.export.urdf import export_urdf
 from svhdesc.compiler.export.xmlfmt import num, serialise, sub
+from svhdesc.compiler.export.yamlfmt import GENERATED
 from svhdesc.ir import Robot
 
 XACRO = "http://www.ros.org/wiki/xacro"

@@ -9,7 +9,7 @@ from typing import Any
 
 from svhdesc.compiler.export.mjcf import export_mjcf
 from svhdesc.compiler.stages.assets import Assets
-from svhdesc.compiler.stages.collisions import add_excludes, configured_excludes
+from svhdesc.compiler.stages.excludes import add_excludes, configured_excludes
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
 

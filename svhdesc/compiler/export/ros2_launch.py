@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 
 from svhdesc.compiler.export.package import package_name
-from svhdesc.compiler.export.ros import GENERATED
 from svhdesc.compiler.export.ros2 import FOLDER, controllers, forward_controllers
 from svhdesc.compiler.export.ros2_control import (
     CONTROLLERS_FILE,
@@ -18,6 +17,7 @@ from svhdesc.compiler.export.ros2_control import (
     PLUGINS,
     urdf_xacro_file,
 )
+from svhdesc.compiler.export.yamlfmt import GENERATED
 from svhdesc.ir import Robot
 from svhdesc.model import ROS2_JOINT_STATE_BROADCASTER
 
