@@ -6,6 +6,9 @@
 - no module of the package imports its face (``import svhdesc``, ``from svhdesc import get``): the face is for
   users; a module imports the module that defines a name (svhdesc.model), so the face can import anything;
 - no import cycle between svhdesc's modules (lazy and type-checking imports count: a cycle is a tangle either way);
+- inside the compiler, each room keeps to its side (``APART``): a stage (a processor of the IR) imports no exporter,
+  probe or pipeline; an exporter (a renderer of the IR and the probes' results) imports no stage, probe or pipeline;
+  a probe imports no pipeline;
 - no module imports an underscore-private name (or module) of another package;
 - at most MAX_ROOT_MODULES modules at the package root;
 - one ``Coupling`` for a built model (svhdesc/model.py) beside the compiler IR's (svhdesc/ir.py).
@@ -28,6 +31,20 @@ RUNTIME = ("loaders", "sim", "ros1", "ros2", "control", "plan", "compare", "wire
 NO_COMPILER = (*RUNTIME, "model", "core")  # what may not import svhdesc.compiler
 FRONT = {"svhdesc", "svhdesc.cli"}  # the package face and the command line, that may import the face
 COUPLING_HOMES = {"svhdesc.model", "svhdesc.ir"}
+# package -> (package it may not import, why): the rooms of the compiler.
+APART: dict[str, tuple[tuple[str, str], ...]] = {
+    "svhdesc.compiler.stages": (
+        ("svhdesc.compiler.export", "a stage processes the IR; what needs an exporter is a probe"),
+        ("svhdesc.compiler.probes", "a stage processes the IR; the pipeline hands it a probe's result"),
+        ("svhdesc.compiler.pipeline", "the pipeline runs the stages, not the other way"),
+    ),
+    "svhdesc.compiler.export": (
+        ("svhdesc.compiler.stages", "an exporter renders the IR; what a stage computes is in it"),
+        ("svhdesc.compiler.probes", "an exporter renders the probes' results (registry.Probed), it runs none"),
+        ("svhdesc.compiler.pipeline", "the pipeline runs the exporters, not the other way"),
+    ),
+    "svhdesc.compiler.probes": (("svhdesc.compiler.pipeline", "the pipeline runs the probes, not the other way"),),
+}
 MAX_ROOT_MODULES = 10
 
 
@@ -84,6 +101,21 @@ def imports_face(target: str, name: str | None) -> bool:
     return target == "svhdesc" and (name is None or not is_module(f"svhdesc.{name}"))
 
 
+def within(module: str, package: str) -> bool:
+    return module == package or module.startswith(f"{package}.")
+
+
+def apart_problems(module: str, target: str) -> list[str]:
+    """What importing ``target`` from ``module`` breaks of ``APART``."""
+    return [
+        f"imports {target}: {why}"
+        for room, rules in APART.items()
+        if within(module, room)
+        for banned, why in rules
+        if within(target, banned)
+    ]
+
+
 def violations(source: str, module: str, is_package: bool = False) -> list[str]:
     """What one module's source breaks of the import and Coupling rules."""
     tree = ast.parse(source)
@@ -102,6 +134,8 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
             problems.append(f"{module}:{line}: svhdesc.core imports {target}; the floor imports nothing above it")
         if module not in FRONT and imports_face(target, name):
             problems.append(f"{module}:{line}: imports the package face svhdesc; import svhdesc.model (or the module)")
+        named = f"{target}.{name}" if name is not None and is_module(f"{target}.{name}") else target
+        problems += [f"{module}:{line}: {problem}" for problem in apart_problems(module, named)]
         private = private_owner(target, name)
         if private is not None and private[1] != own_package:
             problems.append(f"{module}:{line}: imports the private {private[0]} of {private[1]}")
@@ -226,6 +260,26 @@ def test_every_runtime_package_exists() -> None:
         ),
         ("from svhdesc.loaders import _common\n", "svhdesc.compare.engine", "private _common"),
         ("from dataclasses import dataclass\nclass Coupling:\n    pass\n", "svhdesc.sim.robot", "defines a Coupling"),
+        # the compiler's rooms: stages, exporters, probes, pipeline
+        (
+            "from svhdesc.compiler.export.mjcf import export_mjcf\n",
+            "svhdesc.compiler.stages.coupled",
+            "a stage processes the IR; what needs an exporter is a probe",
+        ),
+        ("from svhdesc.compiler import probes\n", "svhdesc.compiler.stages.excludes", "the pipeline hands it"),
+        ("from svhdesc.compiler.pipeline import steps\n", "svhdesc.compiler.stages", "the pipeline runs the stages"),
+        (
+            "from svhdesc.compiler.stages.coupled import mimic_order_problems\n",
+            "svhdesc.compiler.export.urdf",
+            "an exporter renders the IR; what a stage computes is in it",
+        ),
+        (
+            "def f():\n    from svhdesc.compiler.probes.collision_matrix import cached_collision_matrix\n",
+            "svhdesc.compiler.export.registry",
+            "it runs none",
+        ),
+        ("from ..pipeline.timings import Timings\n", "svhdesc.compiler.export.batch", "runs the exporters"),
+        ("from svhdesc.compiler.pipeline.timings import Timings\n", "svhdesc.compiler.probes.cache", "runs the probes"),
     ],
 )
 def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -> None:
@@ -249,6 +303,12 @@ def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -
         ("from svhdesc.sim import Simulation\n", "svhdesc.ros1.node"),
         ("from svhdesc.extras import require as _require\n", "svhdesc.loaders._common"),
         ("class Coupling:\n    pass\n", "svhdesc.ir"),
+        ("from svhdesc.compiler.export.mjcf import export_mjcf\n", "svhdesc.compiler.probes.damping"),
+        ("from svhdesc.compiler.stages.excludes import add_excludes\n", "svhdesc.compiler.probes.rest_contacts"),
+        ("from svhdesc.compiler.assets import Assets\n", "svhdesc.compiler.export.registry"),
+        ("from svhdesc.compiler.assets import Assets\n", "svhdesc.compiler.stages.world"),
+        ("from svhdesc.compiler.probes import probe\n", "svhdesc.compiler.pipeline.builder"),
+        ("from svhdesc.compiler.export.registry import OUTPUTS\n", "svhdesc.compiler.pipeline.builder"),
     ],
 )
 def test_what_the_rules_allow_passes(source: str, module: str) -> None:

@@ -248,7 +248,7 @@ def test_capacity_sizing_sees_the_pairs_warp_tests() -> None:
     import warp as wp
     from mujoco_warp import put_model
 
-    from svhdesc.compiler.stages.batch_sizing import collision_pairs
+    from svhdesc.compiler.probes.batch_capacities import collision_pairs
 
     path = svhdesc.get("ur5_svh_right").batch_scene_path
     model = mujoco.MjModel.from_xml_path(str(path))

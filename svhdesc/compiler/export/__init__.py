@@ -1,1 +1,1 @@
-"""Exporters render the IR into files; they compute nothing the IR does not already hold."""
+"""Exporters render the IR and the probes' results (``registry.Probed``) into files; they compute nothing else."""

@@ -1,6 +1,6 @@
 """IR -> a MoveIt configuration: SRDF, kinematics, joint limits, controllers (MoveIt's simple
 controller manager and ros_control), and a launch file loading them. Renders only: the collision
-matrix comes from ``svhdesc.compiler.stages.collision_matrix``."""
+matrix comes from ``svhdesc.compiler.probes.collision_matrix``."""
 
 from __future__ import annotations
 

@@ -114,30 +114,6 @@ def _gazebo(root: etree._Element, robot: Robot) -> None:
         sub(plugin, "frameName").text = sensor.link
 
 
-def urdfdom_joint_order(robot: Robot) -> list[str]:
-    """Joints in the order urdfdom-based parsers (pinocchio) visit them: depth first, siblings sorted by
-    joint name (urdfdom keeps joints in a std::map, so the file's order does not count)."""
-    order: list[str] = []
-
-    def visit(link: str) -> None:
-        for joint in sorted(robot.child_joints(link), key=lambda j: j.name.encode()):
-            order.append(joint.name)
-            visit(joint.child)
-
-    visit(robot.root)
-    return order
-
-
-def mimic_order_problems(robot: Robot) -> list[str]:
-    """Coupled joints reached before the joint they mimic, which pinocchio's ``mimic=True`` rejects."""
-    position = {name: i for i, name in enumerate(urdfdom_joint_order(robot))}
-    return [
-        f"{j.name} comes before {j.mimic.joint} in urdfdom's name-sorted traversal"
-        for j in robot.joints
-        if j.mimic is not None and position[j.name] < position[j.mimic.joint]
-    ]
-
-
 def _mujoco(root: etree._Element) -> None:
     """MuJoCo's own URDF importer cannot resolve package:// URIs: it strips each mesh's path and looks in assets/
     beside the file (where the build writes them). ROS tools (urdfdom, yourdfpy, sdformat) ignore the element."""

@@ -6,24 +6,28 @@ import tempfile
 from pathlib import Path
 
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built
+from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built, probes_wanted
 from svhdesc.compiler.pipeline.agreement import file_difference, manifest_difference
 from svhdesc.compiler.pipeline.freshness import portable, sha256, svhdesc_version, tool_versions
 from svhdesc.compiler.pipeline.outdir import output_directory, publish, require_exchange
 from svhdesc.compiler.pipeline.steps import Compiled, compile_variants
 from svhdesc.compiler.pipeline.timings import Timings
+from svhdesc.compiler.probes import probe
 from svhdesc.core import manifest as manifest_file
 from svhdesc.core.settings.config import Config
 from svhdesc.paths import models_dir
 
 
 def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path, ...], timings: Timings) -> None:
-    """The compiled variant's assets, every output of the registry, and the manifest, into ``directory``."""
+    """The compiled variant's assets, the probes its outputs read, every output of the registry, and the manifest,
+    into ``directory``."""
     directory.mkdir(parents=True)
     (directory / "assets").mkdir()
     for name, data in sorted(compiled.assets.files.items()):
         (directory / "assets" / name).write_bytes(data)
-    built = Built(compiled.robot, compiled.assets, directory, svhdesc_version())
+    with timings.stage("probes"):
+        probed = probe(compiled.robot, compiled.assets, directory / "assets", probes_wanted(compiled.robot))
+    built = Built(compiled.robot, compiled.assets, directory, svhdesc_version(), probed)
     for output in OUTPUTS:
         if not output.when(compiled.robot):
             continue

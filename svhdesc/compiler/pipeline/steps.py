@@ -19,17 +19,17 @@ from typing import Any
 
 from lxml import etree
 
+from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.pipeline.timings import Timings
+from svhdesc.compiler.probes.rest_contacts import exclude_touching
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
-from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import collision_rules
 from svhdesc.compiler.stages.contact import add_contact
 from svhdesc.compiler.stages.coupled import Coupled, couple
 from svhdesc.compiler.stages.finite import check_finite
 from svhdesc.compiler.stages.geometry import Meshes, bake_meshes, decomposition_jobs
 from svhdesc.compiler.stages.inertials import add_inertials
-from svhdesc.compiler.stages.rest_contacts import exclude_touching
 from svhdesc.compiler.stages.semantics import check_driven, check_hand_names, check_keyframes, check_unique_names
 from svhdesc.compiler.stages.world import add_world
 from svhdesc.core.settings.config import Config, Variant

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.stages.inertials import link_solid
 from svhdesc.core.settings.coupling import propagate
 from svhdesc.core.settings.schema import Arm, Hand, Transmissions

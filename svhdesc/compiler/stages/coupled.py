@@ -5,8 +5,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
-from svhdesc.compiler.export.urdf import mimic_order_problems
-from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.assets import Assets
 from svhdesc.core.settings.coupling import CouplingSpec, apply_spec
 from svhdesc.ir import Robot
 
@@ -37,3 +36,27 @@ def couple(robot: Robot, assets: Assets, section: Coupled) -> Robot:
             stacklevel=2,
         )
     return robot
+
+
+def urdfdom_joint_order(robot: Robot) -> list[str]:
+    """Joints in the order urdfdom-based parsers (pinocchio) visit them: depth first, siblings sorted by
+    joint name (urdfdom keeps joints in a std::map, so the file's order does not count)."""
+    order: list[str] = []
+
+    def visit(link: str) -> None:
+        for joint in sorted(robot.child_joints(link), key=lambda j: j.name.encode()):
+            order.append(joint.name)
+            visit(joint.child)
+
+    visit(robot.root)
+    return order
+
+
+def mimic_order_problems(robot: Robot) -> list[str]:
+    """Coupled joints reached before the joint they mimic, which pinocchio's ``mimic=True`` rejects."""
+    position = {name: i for i, name in enumerate(urdfdom_joint_order(robot))}
+    return [
+        f"{j.name} comes before {j.mimic.joint} in urdfdom's name-sorted traversal"
+        for j in robot.joints
+        if j.mimic is not None and position[j.name] < position[j.mimic.joint]
+    ]

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.decompose import DecompParams, bounded_hull
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.collision_rules import CollisionRule
 from svhdesc.core import exact
 from svhdesc.core.frames import axis_frame, matrix_pose, pose_matrix

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import trimesh
 
-from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.assets import Assets
 from svhdesc.core import exact
 from svhdesc.core.frames import axis_frame, pose_matrix
 from svhdesc.core.settings.schema import Hand, Mass, expand_hand

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.assets import Assets
 from svhdesc.core.settings.schema import Scene, Simulation
 from svhdesc.ir import Ground, Physics, Robot
 

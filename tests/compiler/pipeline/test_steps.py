@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from svhdesc.compiler import probes
 from svhdesc.compiler.decompose import HullCache
 from svhdesc.compiler.decompose.source import HullSource
-from svhdesc.compiler.export.registry import OUTPUTS
+from svhdesc.compiler.export.registry import OUTPUTS, PROBES, Probed, probes_wanted
 from svhdesc.compiler.pipeline import steps
 from svhdesc.compiler.pipeline.builder import write_variant
 from svhdesc.compiler.pipeline.timings import Timings
@@ -70,6 +71,17 @@ def test_a_build_writes_exactly_the_registry_outputs(tmp_path: Path) -> None:
     for output in OUTPUTS:
         mode = (directory / output.name.format(robot="mini")).stat().st_mode
         assert bool(mode & stat.S_IXUSR) == output.executable, output.name
-    # MoveIt's files plan a hand: a robot without channels gets none.
+    # MoveIt's files plan a hand: a robot without channels gets none, and so no collision matrix is sampled for it.
     bare = Robot(name="bare", links=(), joints=(), root="")
     assert {o.name for o in OUTPUTS if not o.when(bare)} >= {"config/{robot}.srdf", "launch/moveit.launch"}
+    assert probes_wanted(bare) == {"damping", "capacities"} and probes_wanted(result.robot) == set(PROBES)
+
+
+def test_an_output_reads_only_the_probe_results_it_names() -> None:
+    """Each probe result has its runner, and one no output named is refused, not None: a batch model written with
+    no capacities would still be valid (seeded fault: the batch model's entry without ``probes=("capacities",)``
+    -> every build stops here with this error)."""
+    assert tuple(probes.RUN) == PROBES
+    with pytest.raises(LookupError, match="'capacities' was not run"):
+        _ = Probed({"damping": {}}).capacities
+    assert Probed({"damping": {"a": 1.0}}).damping == {"a": 1.0}

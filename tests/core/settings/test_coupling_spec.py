@@ -126,7 +126,7 @@ def test_image_finds_interior_extrema() -> None:
 def test_mimic_order_follows_urdfdom_name_sorting(tmp_path: Path) -> None:
     # urdfdom (pinocchio) visits sibling joints sorted by name: a follower in a sibling subtree whose
     # joint name sorts first is reached before its channel, which pinocchio's mimic=True rejects.
-    from svhdesc.compiler.export.urdf import mimic_order_problems, urdfdom_joint_order
+    from svhdesc.compiler.stages.coupled import mimic_order_problems, urdfdom_joint_order
 
     links = tuple(Link(n) for n in ("base", "x", "y", "z"))
 

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.compiler.stages.assets import Assets
-from svhdesc.compiler.stages.remembered import cache_dir, content_key, remembered
+from svhdesc.compiler.assets import Assets
+from svhdesc.compiler.probes.cache import cache_dir, content_key, remembered
 from svhdesc.ir import Robot
 
 SAMPLES = 5000  # the Setup Assistant draws 10000; with the NEAR rule 2000 gave the same matrix
@@ -149,7 +149,7 @@ def collision_matrix(
 
 
 def cached_collision_matrix(robot: Robot, assets: Assets) -> dict[tuple[str, str], str]:
-    """``collision_matrix``, remembered by content (``svhdesc.compiler.stages.remembered``): the MJCF states every
+    """``collision_matrix``, remembered by content (``svhdesc.compiler.probes.cache``): the MJCF states every
     joint, limit, coupling and geom it samples."""
     from svhdesc.compiler.export.mjcf import export_mjcf
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from svhdesc.compiler.export.batch import Capacities
-from svhdesc.compiler.stages import batch_sizing, collision_matrix
-from svhdesc.compiler.stages.remembered import content_key, remembered
+from svhdesc.compiler.probes import batch_capacities, collision_matrix
+from svhdesc.compiler.probes.cache import content_key, remembered
 from tests.support import REPO, TESTS
 
 VARIANT = REPO / "generated" / "svh_right"
@@ -72,15 +72,15 @@ def test_batch_capacities_are_sampled_once_per_content(tmp_path: Path, monkeypat
         sampled.append(model)  # the caching is under test, not the sampling: a made-up worst case
         return Capacities.from_worst_case(10 + len(sampled), 20, 30)
 
-    monkeypatch.setattr(batch_sizing, "sample_capacities", counting)
+    monkeypatch.setattr(batch_capacities, "sample_capacities", counting)
     scene = (VARIANT / "scene_batch.xml").read_bytes()
     model = (VARIANT / "svh_right_batch.xml").read_bytes()
     assets = VARIANT / "assets"
-    first = batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model, assets)
-    assert batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model, assets) == first
+    first = batch_capacities.cached_capacities(scene, "svh_right_batch.xml", model, assets)
+    assert batch_capacities.cached_capacities(scene, "svh_right_batch.xml", model, assets) == first
     assert len(sampled) == 1
     # One more line in the model: a different model, sampled again.
-    other = batch_sizing.cached_capacities(scene, "svh_right_batch.xml", model + b"\n", assets)
+    other = batch_capacities.cached_capacities(scene, "svh_right_batch.xml", model + b"\n", assets)
     assert len(sampled) == 2 and other != first
 
 

@@ -8,8 +8,8 @@ from typing import Any
 
 import pytest
 
-from svhdesc.compiler.stages import collision_matrix
-from svhdesc.compiler.stages.collision_matrix import ALWAYS_FRACTION, _settled
+from svhdesc.compiler.probes import collision_matrix
+from svhdesc.compiler.probes.collision_matrix import ALWAYS_FRACTION, _settled
 from tests.support import REPO
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import svhdesc
-from svhdesc.compiler.stages import batch_sizing
+from svhdesc.compiler.probes import batch_capacities
 
 
 def rollout(variant: str, steps: int) -> tuple[mujoco.MjModel, tuple[np.ndarray, ...]]:
@@ -29,14 +29,14 @@ def test_body_spheres_hold_their_geoms_and_change_no_count(variant: str, monkeyp
     """Counts with the prefilter equal those with every body pair let through (a sphere of 1 km per body).
     Seeded fault: body spheres that forget their geoms' bounding radii give fewer candidates."""
     model, (xpos, xmat, body_xpos, body_xmat) = rollout(variant, 400)
-    pairs = batch_sizing.collision_pairs(model)
-    centre, radius = batch_sizing.body_spheres(model)
+    pairs = batch_capacities.collision_pairs(model)
+    centre, radius = batch_capacities.body_spheres(model)
     solid = model.geom_rbound > 0
     inside = np.linalg.norm(model.geom_pos - centre[model.geom_bodyid], axis=1) + model.geom_rbound
     assert (inside[solid] <= radius[model.geom_bodyid[solid]] + 1e-12).all()
-    counts = batch_sizing.broadphase_candidates(model, xpos, xmat, (body_xpos, body_xmat), pairs)
+    counts = batch_capacities.broadphase_candidates(model, xpos, xmat, (body_xpos, body_xmat), pairs)
     assert counts.max() > 0
-    real = batch_sizing.body_spheres
-    monkeypatch.setattr(batch_sizing, "body_spheres", lambda m: (real(m)[0], np.full(m.nbody, 1e3)))
-    unfiltered = batch_sizing.broadphase_candidates(model, xpos, xmat, (body_xpos, body_xmat), pairs)
+    real = batch_capacities.body_spheres
+    monkeypatch.setattr(batch_capacities, "body_spheres", lambda m: (real(m)[0], np.full(m.nbody, 1e3)))
+    unfiltered = batch_capacities.broadphase_candidates(model, xpos, xmat, (body_xpos, body_xmat), pairs)
     assert (counts == unfiltered).all()

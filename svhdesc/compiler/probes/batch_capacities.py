@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.compiler.export.batch import Capacities
-from svhdesc.compiler.stages.remembered import cache_dir, content_key, remembered
+from svhdesc.compiler.probes.cache import cache_dir, content_key, remembered
 
 ROLLOUT_S = 1.0
 RANDOM_ROLLOUTS = 4
@@ -152,7 +152,7 @@ def _boxes_overlap(
 
 
 def cached_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
-    """``sample_capacities``, remembered by content (``svhdesc.compiler.stages.remembered``)."""
+    """``sample_capacities``, remembered by content (``svhdesc.compiler.probes.cache``)."""
     plan = repr((ROLLOUT_S, RANDOM_ROLLOUTS, SEED, CHUNK)).encode() + Path(__file__).read_bytes()  # and this code
     files = {path.name: path.read_bytes() for path in assets.iterdir()}
     return remembered(

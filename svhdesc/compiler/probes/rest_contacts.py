@@ -1,14 +1,15 @@
 """The touching-at-rest probe: compile the model in MuJoCo and list the link pairs in contact at q = 0.
 
-Lives beside the pipeline, not among the stages, because it needs an exporter.
+The pipeline runs it as its last processor (``exclude_touching``): its result becomes the IR's exclusions through
+the stage ``excludes``, which takes the probe as an argument and so imports no exporter.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.export.mjcf import export_mjcf
-from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.excludes import add_excludes, configured_excludes
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
