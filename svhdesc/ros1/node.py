@@ -10,6 +10,7 @@ Topics and actions (names as SCHUNK's SVH driver and ur_robot_driver use them):
   /scaled_pos_joint_traj_controller/follow_joint_trajectory, .../command, state, query_state (6 arm joints)
   /pos_joint_traj_controller/...                      the same, loaded stopped (as ur5_bringup.launch)
   /joint_group_vel_controller/command                 std_msgs/Float64MultiArray, loaded stopped
+  /<forward position controller>/command              std_msgs/Float64MultiArray, loaded stopped (arm, hand)
   /controller_manager/list_controllers, list_controller_types, switch_controller   controller_manager_msgs
   connector topics (config/connector.yaml)            std_msgs/Float64 control / pose / initpose
   /tracked/<body>                                     geometry_msgs/PoseStamped (--track)
@@ -46,8 +47,11 @@ from svhdesc.model import (
     JOINT_STATE_CONTROLLER,
     NODE_NAME,
     REPORTS_VELOCITY,
+    ROS2_FORWARD_CONTROLLER,
+    ROS2_FORWARD_TYPE,
     STATE_PUBLISH_RATE,
     hand_controller,
+    ros2_hand_forward_controller,
 )
 from svhdesc.ros1.connector import ConnectorJoint, load_connector
 from svhdesc.ros1.messages import control_msgs
@@ -202,6 +206,21 @@ class SimNode:
             loaded.append(
                 Loaded(ARM_VELOCITY_CONTROLLER, kind_name, VELOCITY_INTERFACE, list(info.arm_joints), False, velocity)
             )
+        return loaded + self._forward_controllers(info)
+
+    def _forward_controllers(self, info: Any) -> list[Loaded]:
+        """ros_controllers' position groups, loaded stopped, named as the ROS 2 node's forward position controllers
+        (neither ROS 1 driver has one): over the arm, then over the hand's channels."""
+        from svhdesc.ros1.forward import ForwardController
+        from svhdesc.ros1.manager import Loaded
+
+        hand = ros2_hand_forward_controller(info.hand_prefix or "hand", bool(info.arm_joints))
+        groups = [(ROS2_FORWARD_CONTROLLER, info.arm_joints), (hand, info.hand_channels)]
+        loaded = []
+        for name, joints in groups:
+            if joints:
+                controller = ForwardController(name, joints, self.sim, self.queue)
+                loaded.append(Loaded(name, ROS2_FORWARD_TYPE, POSITION_INTERFACE, list(joints), False, controller))
         return loaded
 
     def _connect(self, rospy: Any, connector: Sequence[ConnectorJoint], float64: Any) -> list[tuple[str, Any]]:

@@ -30,6 +30,7 @@ pytestmark = pytest.mark.skipif(not ros_available(), reason="Debian's python3-ro
 VARIANT = "ur5_svh_right"
 HAND = "right_hand_controller"
 ARM = "scaled_pos_joint_traj_controller"
+HAND_FORWARD = "right_hand_forward_position_controller"  # beside the arm's forward_position_controller
 ARM_JOINTS = [
     "shoulder_pan_joint",
     "shoulder_lift_joint",
@@ -622,6 +623,8 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
         ARM: "running",
         "pos_joint_traj_controller": "initialized",
         "joint_group_vel_controller": "initialized",
+        "forward_position_controller": "initialized",
+        HAND_FORWARD: "initialized",
     }
     claimed = {c.name: c.claimed_resources[0].resources for c in listing().controller}
     assert len(claimed[ARM]) == 6 and claimed[ARM] == claimed["pos_joint_traj_controller"]
@@ -686,3 +689,60 @@ def test_controller_manager_lists_and_switches_like_ur_robot_driver(ros: dict[st
         log.subscriber.unregister()
         assert switch([ARM], ["joint_group_vel_controller"], strict, False, 0.0).ok
     assert states()["joint_group_vel_controller"] == "stopped"
+
+
+def test_forward_position_controllers_like_ros_controllers(ros: dict[str, Any]) -> None:
+    """The position groups (ros_controllers' position_controllers/JointGroupPositionController on the control core's
+    NOETIC_FORWARD), loaded stopped: starting one beside the running trajectory controller of its joints is refused
+    (a resource claimed twice); swapped in (STRICT), its command (one position per channel, in the driver's order)
+    moves the hand there; a command one value short is refused with the real controller's error ("Dimension of
+    command (8) does not match number of joints (9)! Not executing!") and the controller runs on, the hand where it
+    was. Seeded faults: the adapter reversing the command -> the hand never reaches it; NOETIC_FORWARD's
+    wrong_size_fails True -> Jazzy's error text, the refusal not found."""
+    from rosgraph_msgs.msg import Log
+    from std_msgs.msg import Float64MultiArray
+
+    from svhdesc.ros1.messages import controller_manager_msgs
+
+    rospy, cm = ros["rospy"], controller_manager_msgs()
+    listing = rospy.ServiceProxy("/controller_manager/list_controllers", cm.ListControllers)
+    switch = rospy.ServiceProxy("/controller_manager/switch_controller", cm.SwitchController)
+    listing.wait_for_service(20)
+    strict = cm.SwitchControllerRequest.STRICT
+
+    def listed() -> dict[str, Any]:
+        return {c.name: c for c in listing().controller}
+
+    assert listed()[HAND_FORWARD].type == "position_controllers/JointGroupPositionController"
+    channels = [f"right_hand_{c}" for c in DRIVER_CHANNELS]
+    assert listed()[HAND_FORWARD].claimed_resources[0].resources == channels
+    assert not switch([HAND_FORWARD], [], strict, False, 0.0).ok  # HAND runs on the same joints
+    command = rospy.Publisher(f"/{HAND_FORWARD}/command", Float64MultiArray, queue_size=1)
+    wait_for(lambda: command.get_num_connections(), 20, "the forward command subscriber")
+    log = Latest(rospy, "/rosout", Log, keep=True)
+    assert switch([HAND_FORWARD], [HAND], strict, False, 0.0).ok
+    try:
+        assert listed()[HAND_FORWARD].state == "running" and listed()[HAND].state == "stopped"
+        here = _at_rest(ros, channels)
+        test = _keyframe("test")
+        target = [test[j] for j in channels]
+        command.publish(Float64MultiArray(data=target))
+        reached = lambda: all(abs(_positions(ros)[j] - t) < 0.02 for j, t in zip(channels, target))  # noqa: E731
+        wait_for(reached, 120, "the hand at the commanded positions")
+        moved = max(abs(here[j] - t) for j, t in zip(channels, target))
+        assert moved > 0.1, moved
+
+        def refused() -> bool:  # published until the node says it refused it: it surely arrived
+            command.publish(Float64MultiArray(data=[0.1] * 8))
+            text = "Dimension of command (8) does not match number of joints (9)! Not executing!"
+            return any(text in m.msg and m.name.endswith("svhdesc_sim") for m in log.all)
+
+        wait_for(refused, 60, "the short command's refusal", period=0.2)
+        assert listed()[HAND_FORWARD].state == "running"
+        held = _at_rest(ros, channels)
+        assert max(abs(held[j] - t) for j, t in zip(channels, target)) < 0.02
+    finally:
+        log.subscriber.unregister()
+        command.unregister()
+        assert switch([HAND], [HAND_FORWARD], strict, False, 0.0).ok
+    assert listed()[HAND].state == "running" and listed()[HAND_FORWARD].state == "stopped"
