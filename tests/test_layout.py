@@ -8,7 +8,9 @@
 - no import cycle between svhdesc's modules (lazy and type-checking imports count: a cycle is a tangle either way);
 - inside the compiler, each room keeps to its side (``APART``): a stage (a processor of the IR) imports no exporter,
   probe or pipeline; an exporter (a renderer of the IR and the probes' results) imports no stage, probe or pipeline;
-  a probe imports no pipeline;
+  a probe imports no pipeline; the controller core (svhdesc/control/) imports neither the simulator (svhdesc.sim,
+  mujoco) nor a transport (svhdesc.ros1, svhdesc.ros2, rospy, rclpy, ...): of what is not svhdesc, only the standard
+  library and numpy (``CORE_MAY_IMPORT``);
 - no module imports an underscore-private name (or module) of another package;
 - at most MAX_ROOT_MODULES modules at the package root;
 - one ``Coupling`` for a built model (svhdesc/model.py) beside the compiler IR's (svhdesc/ir.py).
@@ -20,6 +22,7 @@ violation in a synthetic source.
 from __future__ import annotations
 
 import ast
+import sys
 from pathlib import Path
 
 import pytest
@@ -44,7 +47,14 @@ APART: dict[str, tuple[tuple[str, str], ...]] = {
         ("svhdesc.compiler.pipeline", "the pipeline runs the exporters, not the other way"),
     ),
     "svhdesc.compiler.probes": (("svhdesc.compiler.pipeline", "the pipeline runs the probes, not the other way"),),
+    "svhdesc.control": (
+        ("svhdesc.sim", "the controller core reads the robot through control.trajectory.Hardware"),
+        ("svhdesc.ros1", "the controller core is free of transports; ROS 1 wraps it"),
+        ("svhdesc.ros2", "the controller core is free of transports; ROS 2 wraps it"),
+    ),
 }
+# What the controller core may import besides svhdesc: no simulator (mujoco), no middleware (rospy, rclpy, ...).
+CORE_MAY_IMPORT = {*sys.stdlib_module_names, "numpy"}
 MAX_ROOT_MODULES = 10
 
 
@@ -124,6 +134,8 @@ def violations(source: str, module: str, is_package: bool = False) -> list[str]:
     own_package = package_of(module, is_package)
     for target, name, line in imports(tree, module, is_package):
         if target != "svhdesc" and not target.startswith("svhdesc."):
+            if within(module, "svhdesc.control") and target.split(".")[0] not in CORE_MAY_IMPORT:
+                problems.append(f"{module}:{line}: the controller core imports {target} (stdlib and numpy only)")
             continue
         reaches_compiler = target == "svhdesc.compiler" or target.startswith("svhdesc.compiler.")
         if wing in NO_COMPILER and reaches_compiler:
@@ -280,6 +292,18 @@ def test_every_runtime_package_exists() -> None:
         ),
         ("from ..pipeline.timings import Timings\n", "svhdesc.compiler.export.batch", "runs the exporters"),
         ("from svhdesc.compiler.pipeline.timings import Timings\n", "svhdesc.compiler.probes.cache", "runs the probes"),
+        # the controller core: no simulator, no transport
+        (
+            "from svhdesc.sim import Point, Simulation, State\n",
+            "svhdesc.control.trajectory",
+            "control.trajectory.Hardware",
+        ),
+        ("from svhdesc.sim.trajectory import Point\n", "svhdesc.control.goals", "control.trajectory.Hardware"),
+        ("def f():\n    from svhdesc.ros2 import node\n", "svhdesc.control.work", "ROS 2 wraps it"),
+        ("from ..ros1.messages import control_msgs\n", "svhdesc.control.manager", "ROS 1 wraps it"),
+        ("import mujoco\n", "svhdesc.control.trajectory", "imports mujoco (stdlib and numpy only)"),
+        ("def f():\n    import rclpy.action\n", "svhdesc.control.forward", "imports rclpy.action"),
+        ("from rospy import Duration\n", "svhdesc.control", "imports rospy"),
     ],
 )
 def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -> None:
@@ -309,6 +333,13 @@ def test_a_seeded_violation_is_caught(source: str, module: str, expected: str) -
         ("from svhdesc.compiler.assets import Assets\n", "svhdesc.compiler.stages.world"),
         ("from svhdesc.compiler.probes import probe\n", "svhdesc.compiler.pipeline.builder"),
         ("from svhdesc.compiler.export.registry import OUTPUTS\n", "svhdesc.compiler.pipeline.builder"),
+        ("import numpy as np\nimport threading\nfrom typing import Protocol\n", "svhdesc.control.trajectory"),
+        (
+            "from svhdesc.control.spline import Point\nfrom svhdesc.errors import SvhdescError\n",
+            "svhdesc.control.goals",
+        ),
+        ("from svhdesc.control.trajectory import JointTrajectoryCore\n", "svhdesc.ros2.controller"),
+        ("import mujoco\n", "svhdesc.sim.runtime"),
     ],
 )
 def test_what_the_rules_allow_passes(source: str, module: str) -> None:

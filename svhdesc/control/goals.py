@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any
 
-from svhdesc.sim.trajectory import Point, validate_points
+from svhdesc.control.spline import Point, validate_points
 
 
 class ErrorCode(IntEnum):

@@ -5,8 +5,11 @@ A goal is checked (INVALID_JOINTS, INVALID_GOAL; INVALID_GOAL too while the cont
 rejected, or accepted and preempts the active goal; the active goal aborts on a path tolerance violation
 (the joints then hold where they are) or when the joints are not within the goal tolerances ``goal_time``
 after the end (at once when it is 0); cancel holds the current position. Every call happens on the
-simulation thread; an adapter (ROS 1: svhdesc.ros1.controller) turns messages into ``Goal`` values and
-what the core reports to its ``Sink`` back into messages.
+simulation thread; an adapter (ROS 1: svhdesc.ros1.controller, ROS 2: svhdesc.ros2.controller) turns messages
+into ``Goal`` values and what the core reports to its ``Sink`` back into messages.
+
+No transport, no simulator import: the core reads the time and the joints and commands the servos through
+``Hardware`` (svhdesc.sim.Simulation is one), as ros_control's JTC works through its hardware interface.
 """
 
 from __future__ import annotations
@@ -19,9 +22,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, check_goal
+from svhdesc.control.spline import Point, State, Trajectory
 from svhdesc.errors import SvhdescError
-from svhdesc.sim import Point, Simulation, State
-from svhdesc.sim.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,22 @@ class Sample:
         return self.desired.velocities - self.actual_velocities
 
 
+class Hardware(Protocol):
+    """What the controller needs of the robot it runs on: the clock, its joints' state and range, and position
+    servos that follow a spline between updates (``follow``) or hold where the joints are."""
+
+    @property
+    def time(self) -> float: ...
+    @property
+    def timestep(self) -> float: ...  # s: "due" means within half of it
+    def limits(self, name: str) -> tuple[float, float]: ...
+    def joint_values(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]: ...  # positions, velocities
+    def desired(self, names: Sequence[str], at: float | None = None) -> State: ...
+    def follow(self, names: Sequence[str], points: Sequence[Point], start_time: float | None = None) -> Trajectory: ...
+    def hold(self, names: Sequence[str]) -> None: ...
+    def set_targets(self, targets: Mapping[str, float]) -> None: ...
+
+
 class Sink(Protocol):
     """What a transport does with the core's decisions (``handle`` is the transport's goal handle)."""
 
@@ -155,7 +173,7 @@ class JointTrajectoryCore:
         self,
         name: str,
         joints: Sequence[str],
-        sim: Simulation,
+        hardware: Hardware,
         sink: Sink,
         allow_partial: bool,
         defaults: Tolerances,
@@ -174,7 +192,7 @@ class JointTrajectoryCore:
         self.sink = sink
         self.defaults = defaults
         self.running = running
-        self._sim = sim
+        self._hw = hardware
         self._allow_partial = allow_partial
         self._active: _Active | None = None
         self.feedback_period = feedback_period  # JTC's action_monitor_rate: 20 Hz
@@ -185,12 +203,9 @@ class JointTrajectoryCore:
         self._next_update = 0.0
         # SCHUNK's SVHRosControlHWInterface never fills its joint velocities: its JTC sees 0 rad/s.
         self._reports_velocity = reports_velocity
-        self._qpos = {j: int(sim.model.joint(j).qposadr[0]) for j in sim.info.joints}
-        self._qvel = {j: int(sim.model.joint(j).dofadr[0]) for j in sim.info.joints}
-        self._addresses: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}  # joints -> (qpos, qvel)
-        self._limits = {j: sim.limits(j) for j in self.joints}
+        self._limits = {j: hardware.limits(j) for j in self.joints}
         self._column = {j: k for k, j in enumerate(self.joints)}
-        self._since = sim.time  # when the current hold began (query_state before it fails)
+        self._since = hardware.time  # when the current hold began (query_state before it fails)
 
     @property
     def active_handle(self) -> Any:
@@ -199,14 +214,14 @@ class JointTrajectoryCore:
     # -- controller_manager switching ---------------------------------------------------------
     def starting(self) -> None:
         """As JTC::starting: hold where the joints are."""
-        self._sim.hold(self.joints)
-        self._since = self._sim.time
+        self._hw.hold(self.joints)
+        self._since = self._hw.time
         self.running = True
 
     def stopping(self) -> None:
         """As JTC::stopping: the active goal is canceled (preempted); the joints hold."""
         self._preempt("the controller was stopped")
-        self._sim.hold(self.joints)
+        self._hw.hold(self.joints)
         self.running = False
 
     # -- goals, commands, cancel, queries -----------------------------------------------------
@@ -218,7 +233,7 @@ class JointTrajectoryCore:
                 goal.joint_names,
                 goal.points,
                 goal.stamp,
-                self._sim.time,
+                self._hw.time,
                 self.joints,
                 self._allow_partial,
                 self._limits,
@@ -228,7 +243,7 @@ class JointTrajectoryCore:
 
     def _start(self, goal: Goal) -> Trajectory | Rejection:
         try:
-            return self._sim.follow(list(goal.joint_names), goal.points, None if goal.stamp == 0.0 else goal.stamp)
+            return self._hw.follow(list(goal.joint_names), goal.points, None if goal.stamp == 0.0 else goal.stamp)
         except (SvhdescError, TypeError, ValueError) as exc:
             return Rejection(ErrorCode.INVALID_GOAL, str(exc))
 
@@ -266,7 +281,7 @@ class JointTrajectoryCore:
         ):
             # As JointTrajectoryController: valid joints and no points stop the controller where it is.
             self._preempt("preempted by an empty goal")
-            self._sim.hold(self.joints)
+            self._hw.hold(self.joints)
             self.sink.accepted(handle)
             self.sink.finished(handle, Result(Status.SUCCEEDED, ErrorCode.SUCCESSFUL, "stopped: empty trajectory"))
             return None
@@ -284,15 +299,15 @@ class JointTrajectoryCore:
             goal.path_position, goal.goal_position, goal.goal_time, goal.path_velocity, goal.goal_velocity
         )
         self._active = _Active(handle, list(goal.joint_names), trajectory, tolerances)
-        self._next_feedback = self._sim.time
+        self._next_feedback = self._hw.time
         return None
 
     def _hold_unnamed(self, named: Sequence[str]) -> None:
         """Jazzy's fill_partial_goal: joints a partial goal leaves out keep their last command."""
         unnamed = [j for j in self.joints if j not in named]
         if unnamed:
-            desired = self._sim.desired(unnamed)
-            self._sim.set_targets(dict(zip(unnamed, desired.positions.tolist())))
+            desired = self._hw.desired(unnamed)
+            self._hw.set_targets(dict(zip(unnamed, desired.positions.tolist())))
 
     def _reject(self, handle: Any, rejection: Rejection) -> Rejection:
         self.sink.warn(f"{self.name}: goal rejected ({int(rejection.code)}): {rejection.reason}")
@@ -306,7 +321,7 @@ class JointTrajectoryCore:
             return False
         # Every joint of the controller, not only the goal's: JTC's setHoldPosition (noetic) / set_hold_position
         # (Jazzy) hold all of them where they are; the joints a partial goal left out may still be on their way.
-        self._sim.hold(self.joints)
+        self._hw.hold(self.joints)
         self._active = None
         return True
 
@@ -318,7 +333,7 @@ class JointTrajectoryCore:
         goal = first_occurrences(goal, len(self.joints))
         if isinstance(goal, Goal) and not goal.points:
             self._preempt("stopped by an empty command")
-            self._sim.hold(self.joints)
+            self._hw.hold(self.joints)
             return None
         rejection = goal if isinstance(goal, Rejection) else self._check(goal)
         if rejection is None:
@@ -337,13 +352,14 @@ class JointTrajectoryCore:
         begin = self._since if self._active is None else self._active.trajectory.begin_time
         if when < begin:  # JTC: the time precedes its trajectory (a hold starts when the controller starts)
             return f"{self.name}: Requested sample time precedes trajectory start time."
-        return self._sim.desired(self.joints, when)
+        return self._hw.desired(self.joints, when)
 
     # -- every control period ----------------------------------------------------------------
     def sample(self, joints: Sequence[str], now: float) -> Sample:
-        desired = self._sim.desired(joints, now)
-        actual = self._sim.data.qpos[self._address(joints)[0]]  # indexing by an array copies
-        return Sample(now, list(joints), desired, actual, self._velocities(joints))
+        desired = self._hw.desired(joints, now)
+        positions, velocities = self._hw.joint_values(joints)
+        velocities = velocities if self._reports_velocity else np.zeros(len(joints))
+        return Sample(now, list(joints), desired, positions, velocities)
 
     def _subset(self, full: Sample, joints: Sequence[str]) -> Sample:
         if joints == full.joints:
@@ -357,8 +373,8 @@ class JointTrajectoryCore:
         controller's joints are sampled once; the goal's are a subset of that sample."""
         if not self.running:
             return
-        now = self._sim.time
-        timestep = self._sim.timestep
+        now = self._hw.time
+        timestep = self._hw.timestep
         if self.update_period > 0.0:
             if not due(now, self._next_update, timestep):
                 return
@@ -422,27 +438,12 @@ class JointTrajectoryCore:
                 f"{tolerances.goal_velocity.get(worst, 0.0)} rad/s)",
             )
 
-    def _velocities(self, joints: Sequence[str]) -> np.ndarray:
-        """The joint velocities the real driver's hardware interface hands the controller."""
-        if not self._reports_velocity:
-            return np.zeros(len(joints))
-        return self._sim.data.qvel[self._address(joints)[1]]
-
-    def _address(self, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-        """qpos and qvel addresses of ``joints`` (remembered: sampled at every update)."""
-        key = tuple(joints)
-        found = self._addresses.get(key)
-        if found is None:
-            qpos = np.array([self._qpos[j] for j in joints], dtype=int)
-            found = self._addresses[key] = (qpos, np.array([self._qvel[j] for j in joints], dtype=int))
-        return found
-
     def _finish(self, code: ErrorCode, text: str, hold: bool = False) -> None:
         active = self._active
         assert active is not None
         self._active = None
         if hold:
-            self._sim.hold(self.joints)  # as a cancel: every joint of the controller
+            self._hw.hold(self.joints)  # as a cancel: every joint of the controller
         if code == ErrorCode.SUCCESSFUL:
             self.sink.finished(active.handle, Result(Status.SUCCEEDED, code, text))
         else:

@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.control.spline import Point, State, Trajectory, validate_points
 from svhdesc.errors import SvhdescError
 from svhdesc.model import urdf_velocity_limits
 from svhdesc.sim.robot import RobotInfo, describe
-from svhdesc.sim.trajectory import Point, State, Trajectory, validate_points
 
 # s: how often ``step``/``advance`` update the controllers (``run`` updates them at its callbacks too)
 CONTROL_PERIOD = 0.002
@@ -111,6 +111,7 @@ class Simulation:
         self._effort_acts = np.array([effort_of[j] for j in self.info.joints if j in effort_of], dtype=int)
         self._bodies: dict[str, int] = {}
         self._index_cache: dict[tuple[str, ...], list[int]] = {}
+        self._addresses: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}  # joints -> (qpos, qvel)
         self._identity = list(range(len(self.info.actuators)))
         limits = urdf_velocity_limits(built.urdf_path) if setpoint_ramp else {}
         ramped = [(self._act_index[j], limits[j]) for j in self.info.hand_channels if limits.get(j, 0.0) > 0.0]
@@ -409,6 +410,15 @@ class Simulation:
     def positions(self) -> dict[str, float]:
         state = self.joint_state()
         return dict(zip(state.names, state.positions.tolist()))
+
+    def joint_values(self, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities of the joints ``names``, in that order (copies)."""
+        key = tuple(names)
+        found = self._addresses.get(key)
+        if found is None:  # looked up once: controllers sample the same joints at every update
+            qpos = np.array([self.model.joint(j).qposadr[0] for j in names], dtype=int)
+            found = self._addresses[key] = (qpos, np.array([self.model.joint(j).dofadr[0] for j in names], dtype=int))
+        return self.data.qpos[found[0]], self.data.qvel[found[1]]  # indexing by an array copies
 
     def _body(self, name: str) -> int:
         body = self._bodies.get(name)
