@@ -42,8 +42,9 @@ from results import cpu_model  # noqa: E402
 import svhdesc  # noqa: E402
 from svhdesc.errors import SvhdescError  # noqa: E402
 from svhdesc.plan import Planner  # noqa: E402
-from svhdesc.plan.execute import current_positions, execute, ros_node  # noqa: E402
+from svhdesc.plan.execute import execute  # noqa: E402
 from svhdesc.plan.ik import pose_matrix  # noqa: E402
+from svhdesc.plan.ros1 import Ros1, ros_node  # noqa: E402
 from svhdesc.sim.objects import Obstacle, load_obstacles  # noqa: E402
 
 VARIANT = "ur5_svh_right"
@@ -64,6 +65,7 @@ ROLL, PITCH, YAW = 0.0, -math.pi / 2, 0.0
 APPROACH = 0.08  # m: pre-grasp stand-off, palm back along -y
 PLACE_PRESS = 0.004  # m: put the can down this far into the table, so it stands when released
 HAND = "right_hand_controller"
+ROS = Ros1()  # where plans are executed and the joints read
 START_SIM = f"svhdesc sim {VARIANT} --ros --scene examples/pick_and_place.yaml --track {OBJECT}"
 SETTLED = 1e-3  # rad per 0.1 s: a hand channel this slow has stopped (at its target or on the can)
 SCALING = 0.5  # velocity and acceleration scaling of every arm motion (MoveIt's request factors)
@@ -125,13 +127,13 @@ class PickAndPlace:
         return [p.x, p.y, p.z, o.w, o.x, o.y, o.z]
 
     def moment(self, name: str) -> None:
-        self.moments.append({"name": name, "joints": current_positions(), "object": self.object_pose()})
+        self.moments.append({"name": name, "joints": ROS.positions(), "object": self.object_pose()})
 
     def move(self, planner: Planner, centre: np.ndarray, label: str, held: np.ndarray | None = None) -> None:
         """Plan and execute tool0 to where the can's centre is at ``centre`` when at ``held`` in the tool frame
         (default: where the grasp puts it)."""
         config = planner.config
-        here = {j: v for j, v in current_positions().items() if j not in config.passive}
+        here = {j: v for j, v in ROS.positions().items() if j not in config.passive}
         plan = planner.plan(
             "manipulator",
             here,
@@ -141,7 +143,7 @@ class PickAndPlace:
         )
         if not plan.success:
             raise RuntimeError(f"{label}: no plan ({plan.message})")
-        run = execute(plan, config)
+        run = execute(plan, config.controllers, ROS)
         if not run.success:
             raise RuntimeError(f"{label}: execution failed {run.results}")
         self.log.append(
@@ -176,7 +178,7 @@ class PickAndPlace:
         last = None
         deadline = self.rospy.get_time() + timeout
         while self.rospy.get_time() < deadline:
-            positions = current_positions()
+            positions = ROS.positions()
             now = np.array([positions[j] for j in joints])
             if last is not None and np.max(np.abs(now - last)) < SETTLED:
                 return
@@ -210,7 +212,7 @@ class PickAndPlace:
         self.move(table_only, base_on_target - np.array([0.0, 0.0, PLACE_PRESS]), "put down", held)
         # Let go: first stop squeezing (a goal where the fingers stopped on the can), then open to the preshape, the
         # thumb unflexed and still opposed. Opening from the squeeze flings the can 2 cm towards the palm.
-        positions = current_positions()
+        positions = ROS.positions()
         self.hand({j: positions[j] for j in self.targets}, 0.5)
         self.hand(preshape, 1.0)
         self.move(table_only, target + np.array([0.0, 0.0, CLEAR]), "up")  # slide off the can upwards first

@@ -778,6 +778,7 @@ def sim_command(
 @click.option("--json", "json_path", type=click.Path(path_type=Path), default=None, help="Write the plan as JSON.")
 @click.option("--seed", type=int, default=1, show_default=True, help="OMPL's random seed (same seed, same path).")
 @click.option("--execute", is_flag=True, help="Send it to a running 'svhdesc sim --ros' and report tracking error.")
+@click.option("--ros2", "over_ros2", is_flag=True, help="With --execute: to a running 'svhdesc sim --ros2' instead.")
 @_friendly
 def plan_command(
     variant: str,
@@ -791,6 +792,7 @@ def plan_command(
     json_path: Path | None,
     seed: int,
     execute: bool,
+    over_ros2: bool,
 ) -> None:
     """Plan GROUP of VARIANT from a state to a state or a tool pose with OMPL, on its generated MoveIt config."""
     import json
@@ -805,6 +807,8 @@ def plan_command(
         raise SvhdescError(f"--planner: unknown '{planner}'; choose from {', '.join(PLANNERS)}")
     if not 0 < timeout < math.inf:
         raise SvhdescError(f"--timeout must be a positive, finite number of seconds, got {timeout}")
+    if over_ros2 and not execute:
+        raise SvhdescError("--ros2 says where --execute sends the plan: give --execute too")
     if json_path is not None and json_path.is_dir():
         raise SvhdescError(f"--json: {json_path} is a directory")
     if variant not in svhdesc_variants():
@@ -815,9 +819,7 @@ def plan_command(
     result = engine.plan(group, start, goal=goal, pose=pose, planner=planner, timeout=timeout)
     document = result.as_json()
     if result.success and execute:
-        from svhdesc.plan.execute import execute as run
-
-        document["execution"] = run(result, engine.config).as_json()
+        document["execution"] = _execute(variant, result, engine.config, over_ros2).as_json()
     if json_path is not None:
         _write_atomically(json_path, json.dumps(document, indent=1) + "\n")
     if not result.success:
@@ -835,6 +837,26 @@ def plan_command(
         )
         if not run_info["success"]:
             sys.exit(1)
+
+
+def _execute(variant: str, plan: Any, config: Any, over_ros2: bool) -> Any:
+    """``plan`` executed over ROS 1 (``svhdesc sim --ros``) or ROS 2 (``svhdesc sim --ros2``)."""
+    from svhdesc.plan.execute import execute
+
+    if not over_ros2:
+        from svhdesc.plan.ros1 import Ros1
+
+        return execute(plan, config.controllers, Ros1())
+    from svhdesc.model import get
+    from svhdesc.plan.config import load_ros2_controllers
+    from svhdesc.plan.ros2 import Ros2
+
+    controllers = load_ros2_controllers(get(variant).directory, config)
+    transport = Ros2(config.joint_names)
+    try:
+        return execute(plan, controllers, transport)
+    finally:
+        transport.close()
 
 
 def _write_atomically(path: Path, text: str) -> None:

