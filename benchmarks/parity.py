@@ -1,11 +1,21 @@
-"""What svhdesc makes of third-party robots beside MuJoCo's own URDF importer: a parity table.
+"""What svhdesc makes of every fixed-base robot of two wheels, beside MuJoCo's own URDF importer: a parity table.
 
-    python benchmarks/parity.py                       # every robot below, writes docs/results/parity.md
-    python benchmarks/parity.py --robots panda_pb,ur5 # some of them
-    python benchmarks/parity.py --no-validate         # build only (faster)
+    python benchmarks/parity.py                          # the whole population, writes docs/results/parity.md
+    python benchmarks/parity.py --robots erd:ur_description/ur5_robot,pb:cartpole   # rerun some, keep the rest
+    python benchmarks/parity.py --list                   # the population and what was left out, nothing run
 
-The robots are those of the PyPI packages example-robot-data (6.0.0, its cmeel.prefix/share folder) and pybullet
-(pybullet_data), read where pip put them, unedited. For each:
+The population is enumerated from the installed wheels, not picked: every ``*.urdf`` under example-robot-data's
+share folder (``cmeel.prefix/share/example-robot-data/robots``) and under ``pybullet_data``, read where pip put
+them. A file is a **robot** when it has at least one movable joint (revolute, continuous, prismatic): pybullet's
+objects (cubes, tables, the generated ``random_urdfs``) are not. A robot is **fixed-base** unless its wheel
+declares its base free: a ``floating`` or ``planar`` joint in the URDF, or a ``<virtual_joint>`` of type
+``floating`` or ``planar`` in an SRDF of its package with the URDF's name (example-robot-data ships one for most
+legged robots and for the PR2). A robot that declares nothing is built, as MuJoCo's importer, pinocchio without a
+root joint and pybullet's ``useFixedBase`` load it, with its root link fixed to the world (a humanoid on a stand,
+a mobile manipulator with its base parked). Files that are not well-formed XML are read leniently for the
+enumeration only, so a robot in a broken file is counted and its fault reported.
+
+For each fixed-base robot:
 
 - MuJoCo's importer: ``mujoco.MjModel.from_xml_path`` on the URDF, the only help given being its mesh URIs
   resolved to absolute paths (as ROS, or pybullet for a URDF-relative ``package://``, would resolve them) and
@@ -13,10 +23,13 @@ The robots are those of the PyPI packages example-robot-data (6.0.0, its cmeel.p
   (it makes no actuators, so nothing holds them).
 - svhdesc: ``svhdesc init URDF --out CONFIG`` (a starter config, unedited), ``svhdesc build``, ``svhdesc validate``
   (every check; those that do not apply are skipped); the built MJCF's actuators, equalities and total mass, and
-  validate's ``gravity_hold`` drift at ``home`` (servos holding the keyframe for 2 s after 0.5 s of settling).
+  validate's ``gravity_hold`` drift at ``home``.
 
-Every step that fails is reported with its first error line; nothing is retried or patched. The URDF's mass is the
-sum of its ``<inertial><mass>`` values. Not a test: each robot takes tens of seconds to a few minutes.
+Every step that fails is reported with its error line; nothing is retried or patched. The URDF's mass is the sum of
+its ``<inertial><mass>`` values. Each robot's row is kept in docs/results/parity.json, so a run of some robots
+(``--robots``) rewrites the page with the others' last rows; the page says which population it covers and the
+README's parity block is refilled from it (benchmarks/collect.py's ``fill_blocks``). Not a test: each robot takes
+tens of seconds to minutes.
 """
 
 from __future__ import annotations
@@ -28,7 +41,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -41,29 +54,85 @@ import numpy as np  # noqa: E402
 from lxml import etree  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
+from collect import PROJECT_README, fill_blocks  # noqa: E402
 from results import write  # noqa: E402
 
 SITE = Path(np.__file__).resolve().parents[1]  # site-packages, where pip put the robots' wheels
 ERD = SITE / "cmeel.prefix" / "share" / "example-robot-data"
 PYBULLET = SITE / "pybullet_data"
-ROBOTS: dict[str, Path] = {
-    "ur5": ERD / "robots/ur_description/urdf/ur5_robot.urdf",
-    "ur10": ERD / "robots/ur_description/urdf/ur10_robot.urdf",
-    "panda": ERD / "robots/panda_description/urdf/panda.urdf",
-    "kinova": ERD / "robots/kinova_description/robots/kinova.urdf",
-    "allegro": ERD / "robots/allegro_hand_description/urdf/allegro_right_hand.urdf",
-    "talos": ERD / "robots/talos_data/robots/talos_reduced.urdf",
-    "z1": ERD / "robots/z1_description/urdf/z1.urdf",
-    "so100": ERD / "robots/so_arm_description/urdf/so100.urdf",
-    "double_pendulum": ERD / "robots/double_pendulum_description/urdf/double_pendulum.urdf",
-    "panda_pb": PYBULLET / "franka_panda/panda.urdf",
-    "kuka_iiwa_pb": PYBULLET / "kuka_iiwa/model.urdf",
-    "xarm6_pb": PYBULLET / "xarm/xarm6_robot.urdf",
-}
+WHEELS = {"erd": ERD / "robots", "pb": PYBULLET}  # name prefix -> folder enumerated
+MOVABLE = {"revolute", "continuous", "prismatic"}
+FREE = {"floating", "planar"}
 OUT = REPO / "docs" / "results" / "parity.md"
-TITLE = "Parity: svhdesc beside MuJoCo's URDF importer"
+TITLE = "Parity: svhdesc beside MuJoCo's URDF importer, every fixed-base robot of two wheels"
 STEP_TIMEOUT = 900  # s per svhdesc command
 DROP = 2.0  # s the importer's model is left to fall
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A URDF of a wheel: its name in the table, its file, its movable joints and why it is not fixed-base."""
+
+    name: str
+    path: Path
+    movable: int
+    free: str  # "" for a fixed-base robot, else what declares its base free
+
+
+def _lenient_root(path: Path) -> etree._Element | None:
+    """The file's root element, read as leniently as lxml can (a broken file's robot is still counted)."""
+    parser = etree.XMLParser(recover=True, remove_comments=True, resolve_entities=False, no_network=True)
+    try:
+        text = path.read_bytes()
+        root = etree.fromstring(
+            text.lstrip().split(b"?>", 1)[1] if text.lstrip().startswith(b"<?xml") else text, parser
+        )
+    except (OSError, etree.XMLSyntaxError, IndexError):
+        return None
+    return root
+
+
+def _srdf_free(path: Path, package: Path) -> str:
+    """The free virtual joint an SRDF of ``package`` named as ``path`` declares, or ""."""
+    for srdf in sorted(package.rglob(f"{path.stem}.srdf")):
+        root = _lenient_root(srdf)
+        for joint in root.iter("virtual_joint") if root is not None else ():
+            if joint.get("type") in FREE:
+                return f"{srdf.relative_to(SITE)}: virtual_joint {joint.get('name')} is {joint.get('type')}"
+    return ""
+
+
+def candidate(wheel: str, folder: Path, path: Path) -> Candidate | None:
+    """The robot in ``path``, or None for a file without a movable joint (an object, not a robot)."""
+    root = _lenient_root(path)
+    if root is None or root.tag != "robot":
+        return None
+    types = [j.get("type") for j in root.iter("joint") if j.getparent() is root]
+    movable = sum(t in MOVABLE for t in types)
+    if not movable:
+        return None
+    relative = path.relative_to(folder)
+    name = f"{wheel}:{relative.parts[0]}/{path.stem}" if wheel == "erd" else f"{wheel}:{relative.with_suffix('')}"
+    free = next((f"its joint of type {t}" for t in types if t in FREE), "")
+    if not free and wheel == "erd":
+        free = _srdf_free(path, folder / relative.parts[0])
+    return Candidate(name, path, movable, free)
+
+
+def population() -> list[Candidate]:
+    """Every robot of the two wheels, fixed-base or not, in name order."""
+    found = []
+    for wheel, folder in WHEELS.items():
+        for path in sorted(folder.rglob("*.urdf")):
+            robot = candidate(wheel, folder, path)
+            if robot is not None:
+                found.append(robot)
+    return sorted(found, key=lambda c: c.name)
+
+
+def fixed_base() -> dict[str, Candidate]:
+    """The population the table covers."""
+    return {c.name: c for c in population() if not c.free}
 
 
 def portable(text: str) -> str:
@@ -71,16 +140,23 @@ def portable(text: str) -> str:
     return text.replace(str(SITE) + os.sep, "").replace(str(REPO) + os.sep, "")
 
 
-def first_line(text: str) -> str:
+def error_line(text: str) -> str:
     text = portable(text)
     lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
     errors = [line for line in lines if line.startswith("error:")]
-    return (errors or lines or ["(no output)"])[-1][:160]
+    return (errors or lines or ["(no output)"])[-1][:400]
 
 
 def urdf_mass(urdf: Path) -> float:
-    root = etree.parse(str(urdf)).getroot()
-    return sum(float(m.get("value", "0")) for m in root.iterfind("link/inertial/mass"))
+    root = _lenient_root(urdf)
+    masses = root.iterfind("link/inertial/mass") if root is not None else ()
+    total = 0.0
+    for mass in masses:
+        try:
+            total += float(mass.get("value", "0"))
+        except ValueError:
+            pass
+    return total
 
 
 def resolve_uri(uri: str, urdf: Path) -> Path | None:
@@ -99,12 +175,13 @@ def resolve_uri(uri: str, urdf: Path) -> Path | None:
 
 def importer_urdf(urdf: Path, folder: Path) -> Path:
     """The URDF with absolute mesh paths and strippath off: what MuJoCo's importer needs to find meshes at all."""
-    tree = etree.parse(str(urdf))
-    for mesh in tree.iter("mesh"):
+    root = _lenient_root(urdf)
+    if root is None:
+        raise ValueError("not XML")
+    for mesh in root.iter("mesh"):
         path = resolve_uri(mesh.get("filename", ""), urdf)
         if path is not None:
             mesh.set("filename", str(path))
-    root = tree.getroot()
     extension = root.find("mujoco")
     if extension is None:
         extension = etree.SubElement(root, "mujoco")
@@ -113,7 +190,7 @@ def importer_urdf(urdf: Path, folder: Path) -> Path:
         compiler = etree.SubElement(extension, "compiler")
     compiler.set("strippath", "false")
     path = folder / urdf.name
-    tree.write(str(path))
+    etree.ElementTree(root).write(str(path))
     return path
 
 
@@ -166,14 +243,25 @@ def cli(*args: str) -> subprocess.CompletedProcess[str]:
         return subprocess.CompletedProcess(command, 124, "", f"error: timed out after {STEP_TIMEOUT} s")
 
 
+def validate_side(config: Path, out: Path, folder: Path) -> dict[str, Any]:
+    report = folder / "report.json"
+    result = cli("validate", "--config", str(config), "--out", str(out), "--json", str(report))
+    checks = json.loads(report.read_text())["variants"][0]["checks"] if report.is_file() else []
+    failed = {c["name"]: portable(c["detail"])[:240] for c in checks if c["status"] not in ("pass", "skipped")}
+    hold = next((c for c in checks if c["name"] == "gravity_hold"), None)
+    drift = (hold or {}).get("data", {}).get("keyframes", {}).get("home", {}).get("drift")
+    verdict = "pass" if result.returncode == 0 else f"fail: {', '.join(failed) or error_line(result.stderr)}"
+    return {"validate": verdict, "failures": failed, "hold_mrad": None if drift is None else float(drift) * 1e3}
+
+
 def svhdesc_side(urdf: Path, folder: Path, validate: bool) -> dict[str, Any]:
     config, out = folder / "robot.yaml", folder / "out"
     result = cli("init", str(urdf), "--out", str(config))
     if result.returncode != 0:
-        return {"builds": False, "error": f"init: {first_line(result.stderr + result.stdout)}"}
+        return {"builds": False, "stage": "init", "error": error_line(result.stderr + result.stdout)}
     result = cli("build", "--config", str(config), "--out", str(out))
     if result.returncode != 0:
-        return {"builds": False, "error": f"build: {first_line(result.stderr + result.stdout)}"}
+        return {"builds": False, "stage": "build", "error": error_line(result.stderr + result.stdout)}
     variants = [d for d in sorted(out.iterdir()) if (d / f"{d.name}.xml").is_file()]
     model = mujoco.MjModel.from_xml_path(str(variants[0] / f"{variants[0].name}.xml"))
     side: dict[str, Any] = {
@@ -184,28 +272,16 @@ def svhdesc_side(urdf: Path, folder: Path, validate: bool) -> dict[str, Any]:
         "mass": float(model.body_mass.sum()),
     }
     if validate:
-        report = folder / "report.json"
-        result = cli("validate", "--config", str(config), "--out", str(out), "--json", str(report))
-        checks = json.loads(report.read_text())["variants"][0]["checks"] if report.is_file() else []
-        failed = [c["name"] for c in checks if c["status"] not in ("pass", "skipped")]
-        side["failures"] = {
-            c["name"]: portable(c["detail"])[:240] for c in checks if c["status"] not in ("pass", "skipped")
-        }
-        side["validate"] = (
-            "pass" if result.returncode == 0 else f"fail: {', '.join(failed) or first_line(result.stderr)}"
-        )
-        hold = next((c for c in checks if c["name"] == "gravity_hold"), None)
-        drift = (hold or {}).get("data", {}).get("keyframes", {}).get("home", {}).get("drift")
-        side["hold_mrad"] = None if drift is None else float(drift) * 1e3
+        side.update(validate_side(config, out, folder))
     return side
 
 
-def measure(name: str, urdf: Path, validate: bool) -> Row:
+def measure(robot: Candidate, validate: bool) -> Row:
     started = time.perf_counter()
-    row = Row(name, str(urdf.relative_to(SITE)), urdf_mass(urdf))
-    with tempfile.TemporaryDirectory(prefix=f"parity-{name}-") as tmp:
-        row.mujoco = mujoco_side(urdf, Path(tmp))
-        row.svhdesc = svhdesc_side(urdf, Path(tmp), validate)
+    row = Row(robot.name, str(robot.path.relative_to(SITE)), urdf_mass(robot.path))
+    with tempfile.TemporaryDirectory(prefix="parity-") as tmp:
+        row.mujoco = mujoco_side(robot.path, Path(tmp))
+        row.svhdesc = svhdesc_side(robot.path, Path(tmp), validate)
         for side in (row.mujoco, row.svhdesc):  # the temporary folder's name is random
             if "error" in side:
                 side["error"] = side["error"].replace(tmp, "<tmp>")
@@ -219,72 +295,136 @@ def mass_cell(mass: float | None, reference: float) -> str:
     return f"{mass:.3f} ({100 * (mass - reference) / reference:+.1f} %)" if reference > 0 else f"{mass:.3f}"
 
 
-def render(rows: list[Row], validate: bool) -> list[str]:
-    header = "| robot | URDF mass kg | MuJoCo importer: opens, act., eq., mass kg, falls in 2 s | "
-    header += "svhdesc: builds | validate | act. | eq. | mass kg | hold drift at home |"
+def outcome(row: Row | None) -> str:
+    """passed | refused (init or build stopped with one error line) | failed (built, validate failed) | not run"""
+    if row is None:
+        return "not run"
+    side = row.svhdesc
+    if not side.get("builds"):
+        return "refused"
+    return {"pass": "passed", None: "built"}.get(side.get("validate"), "failed")
+
+
+def summary(rows: dict[str, Row | None]) -> list[str]:
+    """The first table: how the population fared, by wheel."""
+    wheels = sorted({name.split(":")[0] for name in rows})
+    kinds = ["passed", "refused", "failed", "built", "not run"]
+    counts = {w: {k: 0 for k in kinds} for w in wheels}
+    for name, row in rows.items():
+        counts[name.split(":")[0]][outcome(row)] += 1
     lines = [
-        f"mujoco {mujoco.__version__}; robots from example-robot-data and "
-        "pybullet_data as pip installed them, unedited. MuJoCo's importer got absolute mesh paths and "
-        "`strippath=false`; svhdesc got the config `svhdesc init` wrote, unedited. Mass deviations are against "
-        "the URDF's sum of `<inertial><mass>`.",
-        "",
-        header,
-        "|" + "---|" * 10,
+        "| wheel | fixed-base robots | init -> build -> validate passed | refused with one error line | "
+        "built, validate failed | built, not validated | not run |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
-        m, s = r.mujoco, r.svhdesc
-        importer = (
-            f"yes, {m['actuators']}, {m['equalities']}, {mass_cell(m['mass'], r.urdf_mass)}, {m['drop_rad']:.3g} rad"
-            if m.get("opens")
-            else f"no: {m.get('error', '')}"
+    labels = {"erd": "example-robot-data", "pb": "pybullet_data"}
+    for wheel in wheels:
+        c = counts[wheel]
+        lines.append(
+            f"| {labels.get(wheel, wheel)} | {sum(c.values())} | " + " | ".join(str(c[k]) for k in kinds) + " |"
         )
-        builds = f"yes ({s['warnings']} warnings)" if s.get("builds") else f"no: {s.get('error', '')}"
-        hold = s.get("hold_mrad")
-        cells = [
-            r.robot,
-            f"{r.urdf_mass:.3f}",
-            importer,
-            builds,
-            s.get("validate", "not run" if s.get("builds") and not validate else "-"),
-            str(s.get("actuators", "-")),
-            str(s.get("equalities", "-")),
-            mass_cell(s.get("mass"), r.urdf_mass),
-            "-" if hold is None else f"{hold:.3g} mrad",
-        ]
-        lines.append("| " + " | ".join(c.replace("|", "/") for c in cells) + " |")
-    failures = [(r.robot, name, text) for r in rows for name, text in r.svhdesc.get("failures", {}).items()]
+    total = {k: sum(counts[w][k] for w in wheels) for k in kinds}
+    lines.append(f"| both | {sum(total.values())} | " + " | ".join(str(total[k]) for k in kinds) + " |")
+    return lines
+
+
+def row_cells(name: str, r: Row | None) -> list[str]:
+    if r is None:
+        return [name, "-", "not run", "-", "-", "-", "-", "-", "-"]
+    m, s = r.mujoco, r.svhdesc
+    importer = (
+        f"yes, {m['actuators']}, {m['equalities']}, {mass_cell(m['mass'], r.urdf_mass)}, {m['drop_rad']:.3g} rad"
+        if m.get("opens")
+        else f"no: {m.get('error', '')}"
+    )
+    builds = f"yes ({s['warnings']} warnings)" if s.get("builds") else f"no: {s.get('stage')}: {s.get('error', '')}"
+    hold = s.get("hold_mrad")
+    return [
+        name,
+        f"{r.urdf_mass:.3f}",
+        importer,
+        builds,
+        s.get("validate", "not run" if s.get("builds") else "-"),
+        str(s.get("actuators", "-")),
+        str(s.get("equalities", "-")),
+        mass_cell(s.get("mass"), r.urdf_mass),
+        "-" if hold is None else f"{hold:.3g} mrad",
+    ]
+
+
+def render(rows: dict[str, Row | None], left_out: list[Candidate]) -> list[str]:
+    lines = [
+        f"mujoco {mujoco.__version__}; every fixed-base robot of example-robot-data and pybullet_data as pip "
+        "installed them, unedited (how the population is enumerated: the docstring of benchmarks/parity.py). "
+        "MuJoCo's importer got absolute mesh paths and `strippath=false`; svhdesc got the config `svhdesc init` "
+        "wrote, unedited. Mass deviations are against the URDF's sum of `<inertial><mass>`.",
+        "",
+        *summary(rows),
+        "",
+        "| robot | URDF mass kg | MuJoCo importer: opens, act., eq., mass kg, falls in 2 s | svhdesc: builds | "
+        "validate | act. | eq. | mass kg | hold drift at home |",
+        "|" + "---|" * 9,
+    ]
+    for name, r in rows.items():
+        lines.append("| " + " | ".join(c.replace("|", "/") for c in row_cells(name, r)) + " |")
+    failures = [(n, c, t) for n, r in rows.items() if r for c, t in r.svhdesc.get("failures", {}).items()]
     if failures:
         lines += ["", "What failed (validate's detail, shortened):", ""]
         lines += [f"- {robot} `{name}`: {text}" for robot, name, text in failures]
-    lines += ["", "Sources (under site-packages):", ""]
-    lines += [f"- {r.robot}: `{r.source}` ({r.seconds:.0f} s)" for r in rows]
-    opened = sum(1 for r in rows if r.mujoco.get("opens"))
-    built = sum(1 for r in rows if r.svhdesc.get("builds"))
-    passed = sum(1 for r in rows if r.svhdesc.get("validate") == "pass")
-    lines += ["", f"MuJoCo's importer opened {opened} of {len(rows)}; svhdesc built {built}, validate passed {passed}."]
+    lines += ["", "Sources (under site-packages) and each robot's time:", ""]
+    lines += [f"- {n}: `{r.source}` ({r.seconds:.0f} s)" for n, r in rows.items() if r]
+    lines += ["", f"Robots of the two wheels left out as not fixed-base ({len(left_out)}):", ""]
+    lines += [f"- {c.name}: {c.free}" for c in left_out]
     return lines
+
+
+RESULTS_JSON = OUT.with_suffix(".json")
+
+
+def load_rows(path: Path) -> dict[str, Row]:
+    if not path.is_file():
+        return {}
+    return {name: Row(**row) for name, row in json.loads(path.read_text()).items()}
+
+
+def save(rows: dict[str, Row | None], left_out: list[Candidate], out: Path) -> None:
+    """The page, the rows behind it, and the README's parity block refilled from the page."""
+    kept = {name: asdict(row) for name, row in rows.items() if row is not None}
+    out.with_suffix(".json").write_text(json.dumps(kept, indent=1, sort_keys=True) + "\n")
+    write(out.stem, TITLE, render(rows, left_out), out.parent)
+    if out == OUT:
+        PROJECT_README.write_text(fill_blocks(PROJECT_README.read_text(encoding="utf-8")), encoding="utf-8")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", default="", help="comma-separated names (default: all): " + ", ".join(ROBOTS))
+    parser.add_argument("--robots", default="", help="comma-separated names (default: the whole population)")
+    parser.add_argument("--missing", action="store_true", help="only the robots without a row yet")
     parser.add_argument("--no-validate", action="store_true", help="build only")
+    parser.add_argument("--list", action="store_true", help="print the population, run nothing")
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
-    names = [n for n in args.robots.split(",") if n] or list(ROBOTS)
-    unknown = [n for n in names if n not in ROBOTS]
+    robots = population()
+    fixed = {c.name: c for c in robots if not c.free}
+    left_out = [c for c in robots if c.free]
+    if args.list:
+        for c in robots:
+            print(f"{c.name}\t{c.movable} movable\t{c.free or 'fixed-base'}\t{portable(str(c.path))}")
+        return
+    names = [n for n in args.robots.split(",") if n] or list(fixed)
+    unknown = [n for n in names if n not in fixed]
     if unknown:
-        parser.error(f"unknown robots: {', '.join(unknown)}")
-    rows = []
-    for name in names:
-        if not ROBOTS[name].is_file():
-            print(f"{name}: {ROBOTS[name]} not installed (pip install example-robot-data==6.0.0 pybullet)")
-            continue
-        row = measure(name, ROBOTS[name], not args.no_validate)
-        print(f"{name}: importer {row.mujoco} svhdesc {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
-        rows.append(row)
-        # After each robot: a long run leaves what it did.
-        write(args.out.stem, TITLE, render(rows, not args.no_validate), args.out.parent)
+        parser.error(f"not in the fixed-base population: {', '.join(unknown)} (see --list)")
+    stored = load_rows(args.out.with_suffix(".json"))
+    rows: dict[str, Row | None] = {name: stored.get(name) for name in fixed}
+    if args.missing:
+        names = [n for n in names if rows[n] is None]
+    for name in sorted(names, key=lambda n: (fixed[n].movable, n)):  # the small ones first: early rows
+        row = measure(fixed[name], not args.no_validate)
+        print(f"{name}: {outcome(row)} {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
+        rows[name] = row
+        save(rows, left_out, args.out)  # after each robot: a long run leaves what it did
+    save(rows, left_out, args.out)
     print(f"wrote {args.out}")
 
 

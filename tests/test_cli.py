@@ -81,11 +81,11 @@ def test_unreadable_config(out: Path, tmp_path: Path) -> None:
 def test_check_passes_on_a_fresh_build_and_lists_a_changed_file(tmp_path: Path, session_build: Path) -> None:
     out = tmp_path / "gen"
     shutil.copytree(session_build, out)
-    assert run_cli("build", "--check", "--out", str(out)).returncode == 0
+    assert run_cli("build", "--check", "--trust-cache", "--out", str(out)).returncode == 0
     urdf = out / "svh_left" / "svh_left.urdf"
     urdf.write_bytes(urdf.read_bytes() + b"\n")
     (out / "svh_right" / "assets" / "stale.stl").write_bytes(b"x")
-    result = run_cli("build", "--check", "--out", str(out))
+    result = run_cli("build", "--check", "--trust-cache", "--out", str(out))
     assert result.returncode == 1
     assert "svh_left/svh_left.urdf" in result.stderr and "stale.stl" in result.stderr
     assert urdf.read_bytes().endswith(b"\n\n")  # --check changes nothing

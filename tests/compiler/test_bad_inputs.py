@@ -350,12 +350,19 @@ DUPLICATE_CASES: list[Case] = [
     ),
 ]
 
+
+def leaves_package(project: Path) -> None:
+    """A mesh of package mini (the project's folder) named through '..' out of it: refused, never read."""
+    edit(project / "mini.yaml", "coupling: coupling.yaml", "coupling: coupling.yaml\npackages: {mini: .}")
+    edit(project / "mini.xacro", 'filename="cube.stl"', 'filename="package://mini/../../etc/passwd"')
+
+
 # Issue 28: inputs that gave a traceback or named another place than the culprit.
 HUGE = "9" * 400
 CULPRIT_CASES: list[Case] = [
     ("poly_huge_integer", spec("poly: [0.0, 0.5]", f"poly: [0.0, {HUGE}]"), "coupling.yaml:4: coupled joint j2"),
     ("yaml_5000_digits", config("kp: 1.0", "kp: " + "9" * 5000), "mini.yaml:7: integer 9999"),
-    ("yaml_nested_5000", config("kp: 1.0", "kp: " + "[" * 5000 + "]" * 5000), "mini.yaml: invalid YAML (nested"),
+    ("yaml_nested_5000", config("kp: 1.0", "kp: " + "[" * 5000 + "]" * 5000), "mini.yaml:7: invalid YAML (nested"),
     ("spec_5000_digits", spec("effort: 1.0", "effort: " + "9" * 5000), "coupling.yaml:2: integer"),
     # an expression error inside the included finger.xacro names that file and line, not the entry file
     ("expression_in_include", xacro('upper="1.0"', 'upper="${1/0}"'), "finger.xacro:20: xacro: division by zero"),
@@ -372,6 +379,28 @@ CULPRIT_CASES: list[Case] = [
         config("scene: {floor_z: -0.1}", "scene: {floor_z: -0.1}\narm: {enabled: true, joints: [right_hand_jx]}"),
         "mini.yaml:20: arm.joints: not in the robot: ['right_hand_jx']",
     ),
+    # Issue 38: explicit inertials no engine takes, a macro that calls itself in an included file, a mesh URI that
+    # climbs out of its package: each at the user's file and line.
+    (
+        "explicit_inertial_not_positive_definite",
+        config(
+            "  inertials: {}", "  inertials: {right_hand_t: {mass: 1, com: [0, 0, 0], inertia: [1, 0, 0, 1, 0, -1]}}"
+        ),
+        "mini.yaml:13: mass.inertials.right_hand_t: inertia not positive definite",
+    ),
+    (
+        "explicit_inertial_triangle",
+        config(
+            "  inertials: {}", "  inertials: {right_hand_t: {mass: 1, com: [0, 0, 0], inertia: [1, 0, 0, 1, 0, 3]}}"
+        ),
+        "mini.yaml:13: mass.inertials.right_hand_t: principal moments [1. 1. 3.] violate the triangle inequality",
+    ),
+    (
+        "macro_calls_itself_in_include",
+        xacro('<link name="${prefix}_t">', '<xacro:finger prefix="${prefix}"/><link name="${prefix}_t">'),
+        "finger.xacro:9: xacro: macro 'finger' calls itself (finger -> finger)",
+    ),
+    ("uri_leaves_its_package", leaves_package, "mini.xacro:6: link right_hand_base: package://mini/../../etc/passwd"),
 ]
 
 ALL = [*XACRO_CASES, *MESH_CASES, *SPEC_CASES, *CONFIG_CASES, *MORE_CASES, *DUPLICATE_CASES, *CULPRIT_CASES]
@@ -415,6 +444,38 @@ def test_out_is_a_file(mini: tuple[Path, Path], tmp_path: Path) -> None:
     fails_cleanly(None, "build", "--config", str(project / "mini.yaml"), "--out", str(target), match=str(target))
     fails_cleanly(None, "build", "--config", str(project / "mini.yaml"), "--out", str(target / "sub"), match="file")
     assert target.read_text() == "not a directory"
+
+
+def _foreign(out: Path, kind: str) -> None:
+    """Put in ``out/mini`` something svhdesc did not write there."""
+    target = out / "mini"
+    shutil.rmtree(target)
+    if kind == "file":
+        target.write_text("the user's notes")
+    elif kind == "folder":
+        target.mkdir()
+        (target / "notes.txt").write_text("the user's notes")
+    elif kind == "link":
+        (out / "elsewhere").mkdir()
+        target.symlink_to(out / "elsewhere")
+    else:  # another variant's build, moved here
+        shutil.copytree(out / "mini_other_source", target)
+        shutil.rmtree(out / "mini_other_source")
+
+
+@pytest.mark.parametrize("kind", ["file", "folder", "link", "another_variant"])
+def test_a_path_under_out_svhdesc_did_not_write_is_refused(mini: tuple[Path, Path], kind: str) -> None:
+    """Issue 38: OUT/<variant> that is a file, a link, a folder without its manifest or another variant's build is
+    one error line and stays as it was (seeded fault: refuse_foreign not called: the file is deleted and replaced)."""
+    project, out = mini
+    if kind == "another_variant":
+        shutil.copytree(out / "mini", out / "mini_other_source")
+        manifest = out / "mini_other_source" / "manifest.json"
+        manifest.write_text(manifest.read_text().replace('"variant": "mini"', '"variant": "other"'))
+    _foreign(out, kind)
+    config = ("--config", str(project / "mini.yaml"), "--out", str(out))
+    fails_cleanly(out, "build", *config, "--force", match=f"{out / 'mini'}: ")
+    fails_cleanly(out, "build", *config, match="refusing to replace it")
 
 
 def test_bad_package_option_and_unknown_variant(mini: tuple[Path, Path]) -> None:

@@ -14,10 +14,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import trimesh
 
 from svhdesc.compiler.decompose.coacd_run import _decompose_stl
+from svhdesc.compiler.decompose.fit import misfit_hulls
 from svhdesc.compiler.decompose.keys import _ALGORITHM_VERSION, _coacd_version, _key_from_stl, cache_key
 from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.core.source.meshes import mesh_from_stl, stl_bytes
@@ -72,8 +72,8 @@ class HullCache:
             return None
 
     def hulls_for(self, key: str, mesh: trimesh.Trimesh) -> list[trimesh.Trimesh] | None:
-        """``meshes(key)`` if they can be a decomposition of ``mesh``; an entry that cannot is dropped, with a
-        warning."""
+        """``meshes(key)`` if they can be a decomposition of ``mesh`` (``fit.misfit_hulls``); an entry that cannot
+        is dropped, with a warning."""
         hulls = self.meshes(key)
         misfit = misfit_hulls(mesh, hulls) if hulls is not None else ""
         if not misfit:
@@ -174,26 +174,6 @@ class HullCache:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
         return final
-
-
-# A decomposition of a mesh covers it and stays within its bounds (CoACD's remesh moves the surface by less).
-FIT_TOLERANCE = 0.05  # of the mesh's largest extent
-
-
-def misfit_hulls(mesh: trimesh.Trimesh, hulls: list[trimesh.Trimesh]) -> str:
-    """Why ``hulls`` cannot be a decomposition of ``mesh`` ("" if they can): a cheap check of their bounds,
-    which catches an entry whose digests were rewritten to match the hulls of another mesh."""
-    low, high = (np.asarray(b, dtype=float) for b in mesh.bounds)
-    tolerance = FIT_TOLERANCE * float((high - low).max())
-    hull_low = np.min([h.bounds[0] for h in hulls], axis=0)
-    hull_high = np.max([h.bounds[1] for h in hulls], axis=0)
-    beyond = float(max((low - hull_low).max(), (hull_high - high).max()))
-    if beyond > tolerance:
-        return f"its hulls reach {beyond:.4g} m beyond the mesh's bounds"
-    uncovered = float(max((hull_low - low).max(), (high - hull_high).max()))
-    if uncovered > tolerance:
-        return f"its hulls leave {uncovered:.4g} m of the mesh's bounds uncovered"
-    return ""
 
 
 def _entry_meta(params: DecompParams) -> dict[str, Any]:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import trimesh
 
-from svhdesc.compiler.decompose.cache import HullCache
+from svhdesc.compiler.decompose.cache import CacheWarning, HullCache
+from svhdesc.compiler.decompose.fit import misfit_hulls
 from svhdesc.compiler.decompose.keys import cache_key
 from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.compiler.decompose.pool import parallel_decompose
@@ -40,6 +42,7 @@ class HullSource:
     force: bool = False
     progress: bool = False
     seeds: dict[str, list[tuple[str, bytes]]] = field(default_factory=dict)  # key -> (format, hull bytes)
+    seeded_from: dict[str, Path] = field(default_factory=dict)  # key -> the first hull file of its seed
     results: dict[str, list[trimesh.Trimesh]] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=lambda: {"decomposed": 0, "cached": 0, "committed": 0})
 
@@ -62,13 +65,26 @@ class HullSource:
                     blobs.append((path.suffix[1:].lower(), data))
                 else:
                     self.seeds[key] = blobs
+                    self.seeded_from[key] = directory / "assets" / files[0]
 
-    def _seeded(self, key: str) -> list[trimesh.Trimesh] | None:
-        """Committed hulls for ``key``; a file that does not parse (its manifest edited to match) is ignored."""
-        try:
-            return [_mesh(b, kind) for kind, b in self.seeds[key]] if key in self.seeds else None
-        except Exception:  # any parser failure: decompose again
+    def _seeded(self, key: str, mesh: trimesh.Trimesh) -> list[trimesh.Trimesh] | None:
+        """Committed hulls for ``key`` that pass the hull cache's own check against ``mesh`` (``fit``): a file that
+        does not parse, or hulls that cannot be a decomposition of the mesh (edited with their manifest entry), are
+        one warning and decomposed again."""
+        if key not in self.seeds:
             return None
+        try:
+            hulls = [_mesh(b, kind) for kind, b in self.seeds[key]]
+        except Exception:  # any parser failure: decompose again
+            hulls = None
+        misfit = "a hull does not parse" if hulls is None else misfit_hulls(mesh, hulls)
+        if misfit:
+            first = self.seeded_from[key]
+            message = f"hulls {first} and the rest of its decomposition: {misfit}; decomposing again"
+            warnings.warn(message, CacheWarning, stacklevel=3)
+            del self.seeds[key]
+            return None
+        return hulls
 
     def prefetch(self, jobs: list[tuple[str, trimesh.Trimesh, DecompParams]]) -> None:
         """Decompose every job not yet known, in parallel; later ``get`` calls are lookups."""
@@ -77,7 +93,7 @@ class HullSource:
             key = cache_key(mesh, params)
             if key in self.results:
                 continue
-            seeded = self._seeded(key) if not self.force else None
+            seeded = self._seeded(key, mesh) if not self.force else None
             if seeded is not None:
                 self.results[key] = seeded
                 self.counts["committed"] += 1

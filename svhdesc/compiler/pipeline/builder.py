@@ -9,7 +9,7 @@ from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built, probes_wanted
 from svhdesc.compiler.pipeline.agreement import file_difference, manifest_difference
 from svhdesc.compiler.pipeline.freshness import portable, sha256, svhdesc_version, tool_versions
-from svhdesc.compiler.pipeline.outdir import output_directory, publish, require_exchange
+from svhdesc.compiler.pipeline.outdir import output_directory, publish, refuse_foreign, require_exchange
 from svhdesc.compiler.pipeline.steps import Compiled, compile_variants
 from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.compiler.probes import probe
@@ -98,6 +98,7 @@ def build(
     """
     timings = timings or Timings()
     with output_directory(out) as staging:
+        refuse_foreign(out, names)
         require_exchange(staging, out, names)
         variants = _write_all(config, names, out, staging, extra_packages, hulls, timings)
         publish(staging, out, variants)

@@ -88,7 +88,7 @@ def resolve_portable(name: str, packages: dict[str, Path], config_dir: Path) -> 
 
 def up_to_date(variant: Variant, directory: Path, packages: dict[str, Path]) -> bool:
     manifest = manifest_file.read(directory)
-    if manifest is None:
+    if manifest is None or manifest.get("variant") != variant.name:
         return False
     if manifest.get("tools") != tool_versions():
         return False

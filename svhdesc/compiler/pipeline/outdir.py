@@ -27,6 +27,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from svhdesc.core import manifest as manifest_file
 from svhdesc.errors import SvhdescError
 
 STAGING_PREFIX = ".svhdesc-build-"
@@ -98,6 +99,28 @@ def filesystem(path: Path) -> str:
         if inside and len(mount) >= len(best):
             best, kind = mount, line.split(" - ", 1)[1].split()[0]
     return f"filesystem {kind!r} at {best or '/'}"
+
+
+def refuse_foreign(out: Path, names: list[str]) -> None:
+    """Refuse, before anything is written, to replace ``OUT/<variant>`` where svhdesc did not write it: a file, a
+    link, a folder without a manifest.json, or one whose manifest names another variant is the user's, never deleted.
+    A manifest that is there but damaged is svhdesc's own folder, rebuilt as before."""
+    for name in names:
+        target = out / name
+        if not os.path.lexists(target):
+            continue
+        if target.is_symlink() or not target.is_dir():
+            what = "a link" if target.is_symlink() else "a file"
+        elif not os.path.lexists(manifest_file.path(target)):
+            what = "a folder without a manifest.json"
+        elif (found := manifest_file.read(target)) is not None and found.get("variant") not in (None, name):
+            what = f"the build of variant {found.get('variant')!r}"
+        else:
+            continue
+        raise SvhdescError(
+            f"{target}: {what}, not a build of {name} by svhdesc: refusing to replace it (move it away, or build "
+            "into another --out)"
+        )
 
 
 def require_exchange(staging: Path, out: Path, names: list[str]) -> None:

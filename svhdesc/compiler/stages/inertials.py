@@ -13,6 +13,7 @@ import trimesh
 from svhdesc.compiler.assets import Assets
 from svhdesc.core import exact
 from svhdesc.core.frames import axis_frame, pose_matrix
+from svhdesc.core.inertia import inertial_problem as problem_of
 from svhdesc.core.settings.schema import Hand, Mass, expand_hand
 from svhdesc.core.source.meshes import principal_cylinder
 from svhdesc.errors import SvhdescError
@@ -55,17 +56,8 @@ def cylinder_inertial(solid: trimesh.Trimesh, mass: float) -> Inertial:
 
 
 def inertial_problem(inertial: Inertial) -> str | None:
-    """What makes an inertial unphysical: a mass <= 0, a tensor not positive definite, or principal moments
-    that violate the triangle inequality; None for a valid one."""
-    ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
-    tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-    moments = np.linalg.eigvalsh(tensor)
-    if inertial.mass <= 0 or moments[0] <= 0:
-        return f"inertia not positive definite (mass {inertial.mass}, moments {moments})"
-    a, b, c = moments
-    if a + b < c * (1 - 1e-9):
-        return f"principal moments {moments} violate the triangle inequality"
-    return None
+    """What makes an inertial unphysical (``svhdesc.core.inertia``); None for a valid one."""
+    return problem_of(inertial.mass, inertial.inertia)
 
 
 def check_inertial(inertial: Inertial, where: str) -> None:

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+from svhdesc.core.inertia import inertial_problem
 from svhdesc.core.settings.yamlio import Node, where
 from svhdesc.errors import SvhdescError
 
@@ -289,7 +290,12 @@ def _budget(value: Any, at: str) -> Node:
 
 
 def _inertial(value: Any, at: str) -> Node:
-    return _section(ExplicitInertial, value, at)[1]
+    """One explicit inertial, held to the rule source inertials are (it wins over everything: nothing repairs it)."""
+    inertial = _section(ExplicitInertial, value, at)[1]
+    problem = inertial_problem(float(inertial["mass"]), [float(x) for x in inertial["inertia"]])
+    if problem is not None:
+        raise SvhdescError(f"{at}: {problem}")
+    return inertial
 
 
 @dataclass(frozen=True)

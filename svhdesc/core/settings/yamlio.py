@@ -83,9 +83,26 @@ def load_yaml(path: Path) -> Any:
     except yaml.YAMLError as exc:
         raise SvhdescError(f"{path}: invalid YAML ({exc})") from None
     except RecursionError:
-        raise SvhdescError(f"{path}: invalid YAML (nested too deeply)") from None
+        raise SvhdescError(f"{path}{_deepest(text)}: invalid YAML (nested too deeply)") from None
     finally:
         loader.dispose()
+
+
+def _deepest(text: str, limit: int = 100) -> str:
+    """':LINE' where the nesting first goes ``limit`` levels deep: the event stream needs no recursion, so it can
+    find the line the recursive constructor could not report."""
+    depth = 0
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+                depth += 1
+                if depth >= limit:
+                    return f":{event.start_mark.line + 1}"
+            elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+                depth -= 1
+    except yaml.YAMLError:
+        pass
+    return ""
 
 
 def where(node: Any, fallback: str, key: Any = None) -> str:

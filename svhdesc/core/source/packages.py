@@ -51,7 +51,11 @@ def resolve_uri(uri: str, packages: Mapping[str, Path], where: str) -> Path:
         name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
         if not name or not rest:
             raise SvhdescError(f"{where}: {uri}: a package URI needs package://NAME/PATH")
-        return find_package(name, packages, where) / rest
+        root = find_package(name, packages, where)
+        inside = os.path.normpath(rest)
+        if inside == ".." or inside.startswith(("../", "/")):
+            raise SvhdescError(f"{where}: {uri} leaves package '{name}' ({root}): a package URI names a file inside it")
+        return root / rest
     if uri.startswith("file://"):
         return Path(uri[len("file://") :])
     return Path(uri)

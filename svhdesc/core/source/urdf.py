@@ -87,6 +87,22 @@ def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nt
     return str(fallback)
 
 
+def _written_at(text: str, where: str) -> str:
+    """``where`` ('file:line: link NAME') moved to the line of that file, at or below it, that holds ``text``
+    literally (a mesh's URI: xacro keeps no lines); ``where`` itself when none does."""
+    match = re.match(r"(.+):(\d+): (.*)$", where)
+    if match is None:
+        return where
+    file, start, what = Path(match.group(1)), int(match.group(2)), match.group(3)
+    try:
+        lines = file.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return where
+    quoted = f'"{text}"'
+    found = next((n for n in range(start, len(lines) + 1) if quoted in lines[n - 1]), None)
+    return f"{file}:{found}: {what}" if found is not None else where
+
+
 def _pose(element: etree._Element | None, where: str) -> Pose:
     if element is None:
         return Pose()
@@ -132,6 +148,7 @@ def _geometry(
         uri = shape[0].get("filename")
         if not uri:
             raise SvhdescError(f"{where}: <mesh> needs a 'filename'")
+        where = _written_at(uri, where)
         path = resolve_uri(uri, packages, where)
         if not path.is_absolute():
             path = source.parent / path

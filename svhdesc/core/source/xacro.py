@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import xml.dom.minidom
 from collections.abc import Mapping
@@ -54,6 +55,10 @@ def expand_xacro(
         if failures:
             raise failures[0] from None
         where = Path(xacro.filestack[-1]) if xacro.filestack else path
+        if isinstance(exc, RecursionError):
+            cycle = _macro_cycle([path, *(Path(f) for f in xacro.all_includes)])
+            if cycle:
+                raise SvhdescError(cycle) from None
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         # xacro names the failing expression on a later line ("when evaluating expression '1/0'"): find that.
         expression = re.search(r"when evaluating expression '(.+)'", str(exc))
@@ -94,3 +99,43 @@ def _locate(file: Path, token: str | None) -> str:
         except OSError:
             pass
     return str(file)
+
+
+XACRO_NS = "http://www.ros.org/wiki/xacro"
+
+
+def _macro_calls(files: list[Path]) -> dict[str, list[tuple[str, str]]]:
+    """Each macro's calls of other macros: {macro: [(called, 'file:line' of the call)]}."""
+    calls: dict[str, list[tuple[str, str]]] = {}
+    for file in dict.fromkeys(files):
+        try:
+            root = etree.parse(os.fsencode(file)).getroot()
+        except (OSError, etree.XMLSyntaxError):
+            continue
+        for macro in root.iter(f"{{{XACRO_NS}}}macro"):
+            found = calls.setdefault(str(macro.get("name")), [])
+            for element in macro.iter():
+                if not isinstance(element.tag, str) or element is macro:
+                    continue
+                tag = etree.QName(element)
+                called = element.get("macro") if tag.localname == "call" else tag.localname
+                if tag.namespace == XACRO_NS and called:
+                    found.append((called, f"{file}:{element.sourceline}"))
+    return calls
+
+
+def _macro_cycle(files: list[Path]) -> str:
+    """'file:line: xacro: macro A calls itself ...' for the first macro that reaches itself again, or ""."""
+    calls = _macro_calls(files)
+    for start in calls:
+        stack, seen = [(start, [start])], set()
+        while stack:
+            macro, chain = stack.pop()
+            for called, line in calls.get(macro, []):
+                if called == start:
+                    path = " -> ".join([*chain, start])
+                    return f"{line}: xacro: macro '{start}' calls itself ({path}): the expansion never ends"
+                if called in calls and called not in seen:
+                    seen.add(called)
+                    stack.append((called, [*chain, called]))
+    return ""

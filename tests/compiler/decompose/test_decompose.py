@@ -306,7 +306,7 @@ def _extra_file(cache: HullCache, entry: Path, other: Path) -> None:
     ("forge", "problem"),
     [
         (_forge_from_other, "another key"),
-        (_forge_consistently, "beyond the mesh's bounds"),
+        (_forge_consistently, "the mesh uncovered|beyond the mesh.s convex hull"),
         (_extra_file, "extra file"),
     ],
 )

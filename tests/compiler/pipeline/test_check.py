@@ -12,18 +12,19 @@ import pytest
 
 from tests.support import HULL_CHECK, REPO, run_cli
 
-# The cold check below decomposes every hand mesh into the run's hull cache; the group runs it first (collection
-# order) so that the other --check runs of the group (here and in test_determinism.py) find their hulls there.
+# The check below trusts no cache: it decomposes every hand mesh again and leaves the hulls in the run's hull cache;
+# the group runs it first (collection order) so that the other --check runs of the group (here and in
+# test_determinism.py, each with --trust-cache: what they test is not decomposition) find their hulls there.
 pytestmark = HULL_CHECK
 
 
 @pytest.mark.slow
 def test_committed_generated_models_are_current() -> None:
-    """The CI guard: generated/ is what the sources give. Its own hulls seed nothing, so every decomposition comes
-    from the run's (checked) hull cache or from CoACD."""
+    """The CI guard: generated/ is what the sources give. No hull is taken from the outputs or the hull cache: every
+    collision mesh is decomposed again (seeded fault: --check reading the cache by default: "24 from the cache")."""
     result = run_cli("build", "--check", "--timings")
     assert result.returncode == 0, result.stderr
-    assert "0 from committed outputs" in result.stderr, result.stderr
+    assert "0 from the cache, 0 from committed outputs" in result.stderr, result.stderr
 
 
 def _edit_with_manifest(variant: Path, relative: str, old: str, new: str) -> None:
@@ -50,7 +51,7 @@ def test_a_hand_edited_output_and_manifest_are_reported(tmp_path: Path) -> None:
     _edit_with_manifest(variant, f"assets/{hull.name}", first_vertex, first_vertex.replace(x, repr(float(x) + 1e-4)))
     _edit_with_manifest(variant, "svh_right.urdf", 'effort="', 'effort="1')
     before = {p: p.read_bytes() for p in variant.rglob("*") if p.is_file()}
-    result = run_cli("build", "--check", "--out", str(out), "svh_right")
+    result = run_cli("build", "--check", "--trust-cache", "--out", str(out), "svh_right")
     assert result.returncode == 1, result.stderr
     assert f"svh_right/assets/{hull.name} (differs" in result.stderr, result.stderr
     assert "svh_right/svh_right.urdf (differs" in result.stderr

@@ -38,7 +38,7 @@ def test_perturbed_build_differs_in_bytes_but_passes_check(tmp_path: Path) -> No
     assert file_difference(fresh, committed) is None
     # --check trusts nothing in the folder it checks: a copy, so that the shipped hulls seed the rebuild.
     shutil.copytree(REPO / "generated" / "svh_right", tmp_path / "copy" / "svh_right")
-    check = run_cli("build", "--check", "--out", str(tmp_path / "copy"), "svh_right", env=PERTURB)
+    check = run_cli("build", "--check", "--trust-cache", "--out", str(tmp_path / "copy"), "svh_right", env=PERTURB)
     assert check.returncode == 0, check.stderr
 
 
@@ -58,7 +58,7 @@ def test_check_fails_on_a_change_of_1e9_relative(tmp_path: Path, index: int) -> 
     shutil.copytree(REPO / "generated" / "svh_right", out / "svh_right")
     mjcf = out / "svh_right" / "svh_right.xml"
     mjcf.write_text(_bump_number(mjcf.read_text(), "fullinertia", index, 1.0 + 1e-9))
-    result = run_cli("build", "--check", "--out", str(out), "svh_right")
+    result = run_cli("build", "--check", "--trust-cache", "--out", str(out), "svh_right")
     assert result.returncode == 1
     assert "svh_right/svh_right.xml (differs: line" in result.stderr, result.stderr
 
@@ -210,5 +210,13 @@ def test_build_check_passes_on_another_cpu(tmp_path: Path) -> None:
     # A copy of generated/: the committed hulls seed the rebuild (decomposing is not what this tests).
     # ur5_svh_right holds every number svh_right does (the same hand) and the arm's; svh_left is its mirror.
     shutil.copytree(REPO / "generated" / "ur5_svh_right", tmp_path / "copy" / "ur5_svh_right")
-    result = run_cli("build", "--check", "--out", str(tmp_path / "copy"), "ur5_svh_right", env=_emulating("x86-64-v2"))
+    result = run_cli(
+        "build",
+        "--check",
+        "--trust-cache",
+        "--out",
+        str(tmp_path / "copy"),
+        "ur5_svh_right",
+        env=_emulating("x86-64-v2"),
+    )
     assert result.returncode == 0, result.stderr
