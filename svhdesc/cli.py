@@ -251,15 +251,24 @@ def _build_options(jobs: int, check: bool, trust_cache: bool) -> None:
     "--out", "out", type=click.Path(path_type=Path), default=None, help="Config to write (default: ROBOT.yaml here)."
 )
 @package_option
+@click.option(
+    "--joint",
+    "joints",
+    multiple=True,
+    metavar="NAME.KEY=VALUE",
+    help="A quirk of one joint, as joints.NAME.KEY of the config (mimic=drop, mimic=LEADER, effort=, velocity=, "
+    "lower=, upper=, damping=, friction=): applied to the source and written into the config.",
+)
 @_friendly
-def init_command(source: Path, out: Path | None, packages: tuple[str, ...]) -> None:
+def init_command(source: Path, out: Path | None, packages: tuple[str, ...], joints: tuple[str, ...]) -> None:
     """Write a commented starter config for the URDF or xacro SOURCE (and, from its <mimic> tags, a coupling spec)."""
     from svhdesc.compiler.starter import starter
+    from svhdesc.core.settings.schema import joint_options
     from svhdesc.core.source.packages import parse_package_option
 
     explicit = dict(parse_package_option(p) for p in packages)
     target = out or Path(f"{source.stem.removesuffix('.urdf')}.yaml")
-    result = starter(source, target, explicit)
+    result = starter(source, target, explicit, joint_options(joints))
     written = [(target, result.config)]
     if result.coupling is not None:
         written.append((target.with_name(f"{target.stem}.coupling.yaml"), result.coupling))

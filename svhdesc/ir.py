@@ -129,6 +129,7 @@ class Actuator:
     effort: float
     kp: float
     dampratio: float = 1.0
+    limited: bool = True  # False: a position servo without limits (a continuous joint), ctrl not clamped
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ functions; tests/test_layout.py holds every other runtime module to it).
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 from collections.abc import Mapping
@@ -368,8 +369,10 @@ def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
         joint = int(model.actuator_trnid[i, 0])
         if model.actuator_ctrllimited[i]:
             low, high = model.actuator_ctrlrange[i]
-        else:
+        elif model.jnt_limited[joint]:
             low, high = model.jnt_range[joint]
+        else:  # a continuous joint's servo: any angle
+            low, high = -math.inf, math.inf
         result[model.joint(joint).name] = (float(low), float(high))
     return result
 

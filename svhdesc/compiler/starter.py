@@ -10,24 +10,27 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 from lxml import etree
 
-from svhdesc.core.settings.config import PYTHON
+from svhdesc.compiler.drives import STIFF_AT, Drive, size_drive
+from svhdesc.compiler.loads import Load, joint_loads
+from svhdesc.core.inertia import inertial_problem
+from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
+from svhdesc.core.settings.schema import Simulation
 from svhdesc.core.source.packages import package_name_of
+from svhdesc.core.source.quirks import apply_joint_quirks
 from svhdesc.core.source.urdf import read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
-from svhdesc.ir import Joint, Robot
+from svhdesc.ir import Inertial, Joint, Robot
 
-# A drive reaches its full effort this far from its target: kp = effort / STIFF_AT (rad or m); stiff enough to
-# hold against gravity (which the model compensates), soft enough for the default timestep.
-STIFF_AT = {"revolute": 0.1, "continuous": 0.1, "prismatic": 0.005}
-DEFAULT_KP = 100.0  # a joint whose source gives no effort
 ARMATURE = 0.1  # kg m^2 or kg: the channels' and coupled joints' armature
 GUESSED_MASS = 0.1  # kg: a link with geometry and no inertial in the source (init says so; weigh it)
 HOME_CLEARANCE = 0.1  # of a joint's range: how far `home` keeps clear of its stops
@@ -91,12 +94,13 @@ def _check_meshes(robot: Robot) -> None:
                 raise SvhdescError(f"link {link.name}: mesh {path} is missing or unreadable")
 
 
-def _read(source: Path, given: dict[str, Path]) -> tuple[Robot, list, dict[str, Path]]:
+def _read(source: Path, given: dict[str, Path], quirks: dict[str, Any]) -> tuple[Robot, list, dict[str, Path]]:
     if not source.is_file():
         raise SvhdescError(f"{source}: no such file")
     tree, inputs = expand_xacro(source, {}, given)
     if tree.tag != "robot":
         raise SvhdescError(f"{source}: not a URDF (its root element is <{tree.tag}>, not <robot>)")
+    apply_joint_quirks(tree, quirks, {name: "--joint" for name in quirks})
     packages = _packages(tree, source, given)
     robot = read_urdf(tree, packages, source, inputs)
     _check_meshes(robot)
@@ -114,16 +118,17 @@ def _home(joint: Joint) -> float:
     return round(min(max(0.0, joint.lower + clear), joint.upper - clear), 6)
 
 
-def _damping(joint: Joint) -> float:
+def _damping(joint: Joint, drive: Drive) -> float:
     """effort / velocity: a drive at full effort moves the joint at its rated velocity (an electric motor's torque
     falls with speed so); the source's own damping where that is larger."""
-    if joint.effort > 0 and joint.velocity > 0:
-        return float(f"{max(joint.damping, joint.effort / joint.velocity):.4g}")
+    if drive.effort > 0 and drive.velocity > 0:
+        return float(f"{max(joint.damping, drive.effort / drive.velocity):.4g}")
     return joint.damping
 
 
 def _kp(joint: Joint) -> float:
-    return round(joint.effort / STIFF_AT[joint.type], 3) if joint.effort > 0 else DEFAULT_KP
+    """A channel's servo: full effort 0.1 rad (5 mm) from its target (a channel is rated: spec_from_mimics checks)."""
+    return round(joint.effort / STIFF_AT[joint.type], 3)
 
 
 class _Dumper(yaml.SafeDumper):
@@ -143,9 +148,11 @@ def _block(comment: str, value: dict) -> list[str]:
     return [*(f"# {line}".rstrip() for line in comment.splitlines()), _dump(value), ""]
 
 
-def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
-    """The starter config for ``source`` written to ``out`` (paths in it are relative to ``out``'s folder)."""
-    robot, mimics, packages = _read(source, given)
+def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, Any] | None = None) -> Starter:
+    """The starter config for ``source`` written to ``out`` (paths in it are relative to ``out``'s folder);
+    ``quirks``: ``joints.NAME`` settings (``--joint``) applied to the source and written into the config."""
+    quirks = quirks or {}
+    robot, mimics, packages = _read(source, given, quirks)
     config_dir = out.parent
     spec = spec_from_mimics(robot, mimics, source)
     coupled = {c.joint for c in spec.couplings} if spec else set()
@@ -169,40 +176,116 @@ def starter(source: Path, out: Path, given: dict[str, Path]) -> Starter:
         )
     if spec is not None:
         lines += _channel_blocks(spec, robot, out)
+    timestep = 0.001 if spec is not None else Simulation().timestep
+    home = {j.name: _home(j) for j in movable if j.name not in coupled}
+    drives = _drives(robot, arm, home, timestep)
     if arm:
-        lines += _block(
-            "its independent movable joints: one position servo each, kp = effort / "
-            f"{STIFF_AT['revolute']} rad ({STIFF_AT['prismatic']} m);\n"
-            f"{DEFAULT_KP:g} where the source gives no effort",
-            {"arm": {"enabled": True, "joints": [j.name for j in arm], "kp": [_kp(j) for j in arm]}},
-        )
-    damped = {j.name: {"damping": _damping(j)} for j in arm if _damping(j) > 0}
-    if damped:
-        lines += _block(
-            "the arm joints' damping (N m s/rad, N s/m): effort / velocity of the source's <limit>, so that a\n"
-            "drive at full effort moves its joint at the rated velocity, as a motor's torque falls with speed (the\n"
-            "source's <dynamics damping> where larger). Without it a light joint driven to a far target races into\n"
-            "its stop.",
-            {"joints": damped},
-        )
+        lines += _arm_blocks(arm, drives, timestep, _given(quirks))
+    elif quirks:
+        lines += _block("the quirks given to svhdesc init (--joint)", {"joints": _given(quirks)})
     lines += _masses(robot)
     lines += _block(
         "hull: one convex hull per mesh (fast); decompose: a CoACD convex decomposition (slow, cached)",
         {"collision": {"mode": "hull"}},
     )
-    home = {j.name: _home(j) for j in movable if j.name not in coupled}
     lines += _block(
         f"a pose clear of every joint's stops: 0 where it lies {HOME_CLEARANCE:.0%} of the range inside them, else\n"
         "the nearest such point, or the middle of a range without 0",
         {"keyframes": {"home": home}},
     )
-    lines += _block(
-        "one variant: the source as it is", {"variants": {robot.name: {"xacro": _written_path(source, config_dir)}}}
-    )
+    name = package_name(robot.name)
+    renamed = f" (named {name}: a variant is a ROS package, and '{robot.name}' is no package name)"
+    comment = "one variant: the source as it is" + (renamed if name != robot.name else "")
+    lines += _block(comment, {"variants": {name: {"xacro": _written_path(source, config_dir)}}})
     coupling = None
     if spec is not None:
         coupling = _coupling_text(spec, source)
     return Starter("\n".join(lines), coupling)
+
+
+def _masses_for_loads(robot: Robot) -> dict[str, Inertial]:
+    """Each link's inertial as the build will weigh it: the source's mass (its tensor only where valid), the guess
+    for a link with geometry and no inertial."""
+    found = {}
+    for link in robot.links:
+        inertial = link.inertial
+        if inertial is None:
+            if link.has_geometry:
+                found[link.name] = Inertial(GUESSED_MASS, (0.0, 0.0, 0.0), (0.0,) * 6)  # type: ignore[arg-type]
+            continue
+        if inertial_problem(inertial.mass, inertial.inertia) is not None:
+            inertial = Inertial(max(inertial.mass, 0.0), inertial.com, (0.0,) * 6)  # type: ignore[arg-type]
+        found[link.name] = inertial
+    return found
+
+
+def _drives(robot: Robot, arm: list[Joint], home: dict[str, float], timestep: float) -> dict[str, Drive]:
+    loads: dict[str, Load] = joint_loads(robot, home, _masses_for_loads(robot))
+    return {j.name: size_drive(j.type, j.effort, j.velocity, loads.get(j.name), timestep) for j in arm}
+
+
+def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """The ``--joint`` quirks as the config writes them: the keys given, in the schema's order."""
+    keys = ("effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
+    return {name: {k: getattr(q, k) for k in keys if getattr(q, k) is not None} for name, q in quirks.items()}
+
+
+def _arm_blocks(
+    arm: list[Joint], drives: dict[str, Drive], timestep: float, given: dict[str, dict[str, Any]]
+) -> list[str]:
+    """The arm's servos, and the joints' damping, guessed ratings and the quirks given (``joints:``)."""
+    capped = [j.name for j in arm if drives[j.name].capped]
+    comment = (
+        f"its independent movable joints: one position servo each, kp = effort / {STIFF_AT['revolute']} rad "
+        f"({STIFF_AT['prismatic']} m)"
+    )
+    if capped:
+        comment += ";\n" + textwrap.fill(
+            f"held lower where the timestep ({timestep:g} s) could not integrate it on the inertia behind the joint "
+            f"(svhdesc/compiler/drives.py): {', '.join(capped)}",
+            110,
+        )
+    lines = _block(
+        comment, {"arm": {"enabled": True, "joints": [j.name for j in arm], "kp": [drives[j.name].kp for j in arm]}}
+    )
+    quirks: dict[str, dict[str, Any]] = {name: dict(entry) for name, entry in given.items()}
+    for joint in arm:
+        drive = drives[joint.name]
+        entry = quirks.setdefault(joint.name, {})
+        if drive.guessed:
+            entry.update(effort=drive.effort, velocity=drive.velocity)
+        elif drive.raised:
+            entry.update(effort=drive.effort)
+        damping = _damping(joint, drive)
+        if damping > 0 and "damping" not in entry:
+            entry["damping"] = damping
+    quirks = {name: entry for name, entry in quirks.items() if entry}
+    guessed = [j.name for j in arm if drives[j.name].guessed]
+    comment = (
+        "the arm joints' damping (N m s/rad, N s/m): effort / velocity of the source's <limit>, so that a\n"
+        "drive at full effort moves its joint at the rated velocity, as a motor's torque falls with speed (the\n"
+        "source's <dynamics damping> where larger). Without it a light joint driven to a far target races into\n"
+        "its stop."
+    )
+    if guessed:
+        comment += "\n" + textwrap.fill(
+            "The source rates no drive (effort or velocity 0) for: " + ", ".join(guessed) + ". Their effort and "
+            "velocity are a GUESS (1.5 x the gravity load at home, at least 10 rad/s^2 on the inertia it moves; "
+            "1 rad/s, 0.1 m/s): rate them",
+            110,
+        )
+    raised = [j for j in arm if drives[j.name].raised]
+    if raised:
+        comment += "\n" + textwrap.fill(
+            "The source's effort cannot hold the robot at home for: "
+            + ", ".join(f"{j.name} ({j.effort:g} -> {drives[j.name].effort:g})" for j in raised)
+            + "; raised to 1.5 x the gravity load there (a deviation from the source: lower it, and pick a home the "
+            "rated drives hold, to keep the rating)",
+            110,
+        )
+    if quirks:
+        lines += _block(comment, {"joints": quirks})
+    return lines
 
 
 def _channel_blocks(spec: CouplingSpec, robot: Robot, out: Path) -> list[str]:

@@ -105,6 +105,7 @@ class Simulation:
         self._act_qpos = np.array([self.model.joint(a).qposadr[0] for a in self.info.actuators], dtype=int)
         self._act_qvel = np.array([self.model.joint(a).dofadr[0] for a in self.info.actuators], dtype=int)
         self._ctrlrange = self.model.actuator_ctrlrange.copy()
+        self._ctrlrange[self.model.actuator_ctrllimited == 0] = (-math.inf, math.inf)  # a continuous joint's servo
         # joint_state's efforts: the actuator force of each actuated joint, 0 on the coupled ones
         effort_of = {name: a for a, name in enumerate(self.info.actuators)}
         self._effort_cols = np.array([k for k, j in enumerate(self.info.joints) if j in effort_of], dtype=int)

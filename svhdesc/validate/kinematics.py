@@ -39,7 +39,7 @@ def sample_configurations(model: Any, count: int, rng: np.random.Generator) -> l
             name = model.joint(j).name
             if name in coupled:
                 continue
-            if name in actuated:
+            if name in actuated and np.isfinite(actuated[name]).all():
                 low, high = actuated[name]
             elif model.jnt_limited[j]:
                 low, high = model.jnt_range[j]

@@ -19,6 +19,7 @@ MIN_SPEED, or at the drive's own speed where slower (drive_speed).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -123,7 +124,9 @@ def driven_joints(pair: ModelPair) -> tuple[dict[str, tuple[float, float]], dict
     """(the hand's channels, every other joint an actuator drives) -> commanded range, each with a range to cover
     (a continuous joint without one is left out)."""
     channels = hand_parts(pair).channels
-    others = {n: r for n, r in actuated_joints(pair.model).items() if n not in channels and r[0] < r[1]}
+    others = {
+        n: r for n, r in actuated_joints(pair.model).items() if n not in channels and -math.inf < r[0] < r[1] < math.inf
+    }
     return channels, others
 
 

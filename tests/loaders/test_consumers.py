@@ -170,6 +170,7 @@ def test_invalid_ros_package_name_is_refused(tmp_path: Path) -> None:
     )
     result = run_cli("build", "--config", str(config), "--out", str(tmp_path / "out"), in_process=True)
     assert result.returncode == 2, result.stderr
-    assert result.stderr.startswith("error: variant 'Bad-Name' is not a valid ROS package name")
+    assert result.stderr.startswith(f"error: {config}:3: variant 'Bad-Name' is not a valid ROS package name")
+    assert "e.g. 'bad_name'" in result.stderr
     assert "Traceback" not in result.stderr
     assert not (tmp_path / "out" / "Bad-Name").exists()

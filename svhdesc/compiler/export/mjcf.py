@@ -72,12 +72,13 @@ def _joint_attrs(joint: Joint, gravcomp: bool) -> dict[str, str]:
 
 
 def _actuator_attrs(act: Actuator) -> dict[str, str]:
+    limits = {"ctrlrange": nums((act.lower, act.upper))} if act.limited else {"ctrllimited": "false"}
     return {
         "name": act.name,
         "joint": act.joint,
         "kp": num(act.kp),
         "dampratio": num(act.dampratio),
-        "ctrlrange": nums((act.lower, act.upper)),
+        **limits,
         "forcerange": nums((-act.effort, act.effort)),
     }
 
@@ -96,6 +97,14 @@ def _shared(members: list[dict[str, str]], keys: tuple[str, ...]) -> dict[str, s
     return {k: first[k] for k in keys if k in first and all(m.get(k) == first[k] for m in members)}
 
 
+FIXED_CLASSES = ("drive", "coupled", "arm", "servo", "visual", "collision")
+
+
+def top_class(robot: Robot) -> str:
+    """The model's own default class: the robot's name, unless a class within has it (a robot named ``arm``)."""
+    return f"{robot.name}_model" if robot.name in FIXED_CLASSES else robot.name
+
+
 def _roles(robot: Robot) -> tuple[dict[str, str], dict[str, str]]:
     """Joint name -> joint class, actuator name -> actuator class.
 
@@ -111,7 +120,7 @@ def _roles(robot: Robot) -> tuple[dict[str, str], dict[str, str]]:
         joints[joint.name] = "drive" if joint.name in channel_joints else "coupled" if joint.mimic else "arm"
     actuators: dict[str, str] = {}
     groups: dict[tuple[str, str], str] = {}
-    taken = {"drive", "coupled", "arm", "servo", "visual", "collision", robot.name}
+    taken = {*FIXED_CLASSES, top_class(robot)}
     for act in robot.actuators:
         if act.joint in channel_joints:
             actuators[act.name] = "servo"
@@ -224,7 +233,7 @@ def _compiler_and_options(root: etree._Element, robot: Robot) -> None:
 
 
 def _defaults(root: etree._Element, robot: Robot, classes: list[DefaultClass]) -> None:
-    top = sub(sub(root, "default"), "default", class_=robot.name)
+    top = sub(sub(root, "default"), "default", class_=top_class(robot))
     sub(sub(top, "default", class_="visual"), "geom", type="mesh", contype="0", conaffinity="0", group="2", density="0")
     sub(
         sub(top, "default", class_="collision"),
@@ -252,7 +261,7 @@ def _assets(root: etree._Element, robot: Robot) -> None:
 
 def _worldbody(root: etree._Element, ctx: _Context) -> None:
     robot = ctx.robot
-    top = sub(sub(root, "worldbody"), "body", name=f"{robot.name}_root", childclass=robot.name)
+    top = sub(sub(root, "worldbody"), "body", name=f"{robot.name}_root", childclass=top_class(robot))
     # Geometry-less roots (a URDF 'world' link) become the world itself.
     root_link = robot.link(robot.root)
     if root_link.has_geometry or root_link.inertial is not None:
@@ -307,7 +316,9 @@ def _keyframes(root: etree._Element, robot: Robot) -> None:
             "key",
             name=frame.name,
             qpos=nums(values[j] for j in order),
-            ctrl=nums(min(max(values[a.joint], a.lower), a.upper) for a in robot.actuators),
+            ctrl=nums(
+                min(max(values[a.joint], a.lower), a.upper) if a.limited else values[a.joint] for a in robot.actuators
+            ),
         )
 
 

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import re
-
 from lxml import etree
 
 from svhdesc.compiler.export.xmlfmt import serialise, sub
+from svhdesc.core.settings.config import PACKAGE_NAME
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
-
-# REP 144: lower case letters, digits and underscores, starting with a letter.
-PACKAGE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 def package_name(robot: Robot) -> str:

@@ -38,6 +38,7 @@ from svhdesc.core.settings.schema import Settings
 from svhdesc.core.settings.yamlio import where
 from svhdesc.core.source import mount as mount_source
 from svhdesc.core.source.packages import resolve_uri
+from svhdesc.core.source.quirks import apply_joint_quirks
 from svhdesc.core.source.urdf import SourceMimic, read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
@@ -128,8 +129,9 @@ class Source:
 
 
 def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
-    """The variant's robot as read; with a ``mount``, the arm of its xacro with this project's hand grafted on."""
-    arm = _read(variant.xacro, variant.args, packages, timings)
+    """The variant's robot as read, its ``joints:`` quirks applied; with a ``mount``, the arm of its xacro with this
+    project's hand grafted on."""
+    arm = _read(variant.xacro, variant.args, packages, timings, variant.settings.joints)
     mount = variant.settings.mount
     if mount is None:
         return replace(arm, robot=replace(arm.robot, name=variant.name))
@@ -140,10 +142,13 @@ def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -
     return Source(replace(robot, name=variant.name), list(dict.fromkeys([*arm.inputs, *hand.inputs])), arm.mimics)
 
 
-def _read(xacro: Path, args: dict[str, str], packages: dict[str, Path], timings: Timings) -> Source:
+def _read(
+    xacro: Path, args: dict[str, str], packages: dict[str, Path], timings: Timings, quirks: dict | None = None
+) -> Source:
     with timings.stage("xacro"):
         tree, inputs = expand_xacro(xacro, args, packages)
     with timings.stage("read"):
+        apply_joint_quirks(tree, quirks or {}, getattr(quirks, "lines", {}))
         robot = read_urdf(tree, packages, xacro, inputs)
     mimics = read_mimics(tree, xacro, inputs)
     return Source(robot, [*inputs, *_mesh_sources(tree, packages, xacro)], mimics)

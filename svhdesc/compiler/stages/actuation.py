@@ -87,7 +87,8 @@ def add_actuation(
         raise SvhdescError(f"{arm.at('kp')}: arm.kp: expected {len(names)} values (one per arm joint), got {len(kps)}")
     for name, kp in zip(names, kps):
         j = joints[name]
-        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, arm.dampratio))
+        # A continuous joint (a wheel, an endless wrist) gets a position servo without limits: any angle is a target.
+        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, arm.dampratio, j.type != "continuous"))
     # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's
     # effort, and move as fast as the coupling makes them (j4 turns 1.45x as fast as Thumb_Flexion):
     # a follower capped at the channel's speed lags behind it in engines that enforce velocity limits.

@@ -67,7 +67,7 @@ def check_driven(robot: Robot, arm: Arm) -> None:
                 f"{joint.source}: an actuated joint needs effort > 0 and velocity > 0 "
                 f"(has {actuator.effort:g} and {joint.velocity:g})"
             )
-        if actuator.lower >= actuator.upper:
+        if actuator.limited and actuator.lower >= actuator.upper:
             raise SvhdescError(f"{joint.source}: an actuated joint needs lower < upper")
 
 

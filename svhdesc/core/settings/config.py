@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import re
 import site
 import sysconfig
 from dataclasses import dataclass, fields
@@ -148,6 +149,18 @@ def _read(path: Path, chain: tuple[Path, ...] = (), files: list[Path] | None = N
     return _merge(base, data)
 
 
+# REP 144: lower case letters, digits and underscores, starting with a letter. A variant is built as a ROS package
+# of its name, so its name is one.
+PACKAGE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+def package_name(text: str) -> str:
+    """``text`` made a valid package name: lower case, every run of other characters one underscore, a letter first
+    (``TwoJointRobot`` -> ``twojointrobot``, ``UF_ROBOT`` -> ``uf_robot``, ``2dof_planar`` -> ``robot_2dof_planar``)."""
+    name = re.sub(r"[^a-z0-9_]+", "_", text.lower()).strip("_")
+    return name if name[:1].isalpha() else f"robot_{name}".rstrip("_")
+
+
 def load_config(path: Path) -> Config:
     path = Path(path)
     files: list[Path] = []
@@ -163,6 +176,11 @@ def load_config(path: Path) -> Config:
     variants = {}
     for name, entry in data["variants"].items():
         at = where(entry, where(data["variants"], str(path), name))
+        if not PACKAGE_NAME.match(str(name)):
+            raise SvhdescError(
+                f"{where(data['variants'], str(path), name)}: variant '{name}' is not a valid ROS package name (lower "
+                f"case letters, digits and underscores, starting with a letter): rename it, e.g. '{package_name(name)}'"
+            )
         if not isinstance(entry, dict) or "xacro" not in entry:
             raise SvhdescError(f"{at}: variant {name} needs an 'xacro' entry point")
         bad = [key for key in entry if key not in VARIANT_KEYS]

@@ -72,7 +72,7 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
     if not mimics:
         return None
     by_joint = {m.joint: m for m in mimics}
-    couplings, lines, leaders = [], {}, []
+    couplings, lines, leaders, broken = [], {}, [], []
     for mimic in mimics:
         leader, factor, offset, seen = mimic.leader, mimic.multiplier, mimic.offset, {mimic.joint}
         while leader in by_joint:  # compose joint = f * (f2 * x + o2) + o onto the chain's first leader
@@ -82,11 +82,14 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
             up = by_joint[leader]
             leader, factor, offset = up.leader, factor * up.multiplier, factor * up.offset + offset
         if leader not in joints or not joints[leader].movable:
-            raise SvhdescError(f"{mimic.where}: <mimic> names joint {leader!r}, which is no movable joint")
+            broken.append(replace(mimic, leader=leader))
+            continue
         couplings.append(Coupling(mimic.joint, leader, (offset, factor)))
         lines[mimic.joint] = mimic.where
         if leader not in leaders:
             leaders.append(leader)
+    if broken:
+        raise SvhdescError(_broken(broken, joints))
     channels = []
     for name in leaders:
         joint = joints[name]
@@ -99,6 +102,28 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
         channels.append(Channel(name, name, joint.lower, joint.upper, joint.effort, joint.velocity))
         lines[name] = where_
     return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _broken(broken: list[SourceMimic], joints: Mapping[str, Joint]) -> str:
+    """One line for every <mimic> naming no movable joint, with the quirk keys that work around each: follow the
+    movable joint whose name ends like the one named and begins like the follower's own (``Left_index_q1`` for
+    ``Left_index_q2``'s ``index_q1``), else drop the tag."""
+    fixes = []
+    for mimic in broken:
+        endings = [n for n, j in joints.items() if j.movable and n != mimic.joint and n.endswith(mimic.leader)]
+        shared = [len(_common_prefix(n, mimic.joint)) for n in endings]
+        fixes.append(f"--joint {mimic.joint}.mimic={endings[shared.index(max(shared))] if endings else 'drop'}")
+    first = broken[0]
+    more = f" ({len(broken)} such tags)" if len(broken) > 1 else ""
+    return (
+        f"{first.where}: <mimic> names joint {first.leader!r}, which is no movable joint{more}: re-point or drop "
+        f"them, as joints.NAME.mimic: LEADER | drop in the config, or to svhdesc init: {' '.join(fixes)}"
+    )
+
+
+def _common_prefix(a: str, b: str) -> str:
+    count = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
+    return a[:count]
 
 
 def _movable_mimics(mimics: list[SourceMimic], joints: Mapping[str, Joint]) -> list[SourceMimic]:

@@ -454,14 +454,41 @@ def _grasp(value: Any, at: str) -> Node:
 
 @dataclass(frozen=True)
 class JointDynamics(Located):
-    """One joint's dynamics, over the source's <dynamics> and the hand/arm sections' defaults."""
+    """One joint's quirks: its dynamics over the source's <dynamics> and the hand/arm sections' defaults, and what
+    patches the source's <joint> before it is read (svhdesc.core.source.quirks)."""
 
     damping: float | None = _field(None, optional(number(0.0)))  # N m s/rad (N s/m for a sliding joint)
     friction: float | None = _field(None, optional(number(0.0)))  # N m (N): MuJoCo's frictionloss
+    # the drive's rating where the source gives none (<limit effort="0">): N m (N), rad/s (m/s)
+    effort: float | None = _field(None, optional(number(0.0, 1e6, strict=True)))
+    velocity: float | None = _field(None, optional(number(0.0, 1e4, strict=True)))
+    # the joint's limits where the source's are unusable (rad, m)
+    lower: float | None = _field(None, optional(number(-1e3, 1e3)))
+    upper: float | None = _field(None, optional(number(-1e3, 1e3)))
+    # its <mimic> tag: "drop" (ignored), or the joint it follows instead (with the tag's multiplier and offset)
+    mimic: str | None = _field(None, optional(text))
 
 
 def _joint_dynamics(value: Any, at: str) -> JointDynamics:
     return _section(JointDynamics, value, at)[0]
+
+
+def joint_options(options: tuple[str, ...] | list[str]) -> dict[str, JointDynamics]:
+    """``--joint NAME.KEY=VALUE`` options (svhdesc init) as the ``joints:`` settings they stand for, each value read
+    as YAML and checked as the config's own would be."""
+    import yaml
+
+    raw: dict[str, Node] = {}
+    for option in options:
+        target, sep, value = option.partition("=")
+        name, dot, key = target.rpartition(".")
+        if not sep or not dot or not name or not key:
+            raise SvhdescError(f"--joint {option!r}: expected NAME.KEY=VALUE (joints.NAME.KEY of the config)")
+        try:
+            raw.setdefault(name, Node())[key] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raw.setdefault(name, Node())[key] = value
+    return {name: _joint_dynamics(entry, f"--joint: joints.{name}") for name, entry in raw.items()}
 
 
 @dataclass(frozen=True)

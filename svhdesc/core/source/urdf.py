@@ -132,8 +132,9 @@ def _geometry(
     where: str,
 ) -> Geometry:
     origin = _pose(element.find("origin"), where)
-    shape = element.find("geometry")
-    if shape is None or len(shape) == 0:
+    geometry = element.find("geometry")
+    shape = [child for child in geometry if isinstance(child.tag, str)] if geometry is not None else []  # no comments
+    if not shape:
         raise SvhdescError(f"{where}: {element.tag} without geometry")
     kind = shape[0].tag
     rgba = None

@@ -1,0 +1,61 @@
+"""A robot's faults worked around by settings, not edits: ``joints.NAME`` keys that patch the source's ``<joint>``
+before it is read, so every later step (the coupling spec from ``<mimic>`` tags, the drives, every output) sees the
+joint as the settings say.
+
+- ``mimic: drop``: the joint's ``<mimic>`` tag is ignored (a mimic naming a joint that does not exist, as the Alex
+  with PSYONIC hands writes its fingers' without their side prefix); ``mimic: LEADER``: it follows LEADER instead,
+  with the tag's multiplier and offset;
+- ``effort``, ``velocity``: the drive's rating where the source gives none (``<limit effort="0">``);
+- ``lower``, ``upper``: the limits where the source's are unusable (inverted, as pybullet's "no limit" convention
+  writes them, or absent).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from lxml import etree
+
+from svhdesc.errors import SvhdescError
+
+DROP = "drop"
+LIMIT_KEYS = ("effort", "velocity", "lower", "upper")
+
+
+def _value(quirk: Any, key: str) -> Any:
+    return quirk.get(key) if isinstance(quirk, Mapping) else getattr(quirk, key, None)
+
+
+def apply_joint_quirks(tree: etree._Element, quirks: Mapping[str, Any], where: Mapping[str, str]) -> etree._Element:
+    """``tree`` (a URDF ``<robot>``) with each ``joints.NAME`` quirk applied, in place; ``where``: each name's
+    file:line in the config, for the one error a quirk on no joint of the source gives."""
+    joints = {element.get("name"): element for element in tree.findall("joint")}
+    for name, quirk in quirks.items():
+        patch = {key: _value(quirk, key) for key in (*LIMIT_KEYS, "mimic")}
+        if all(value is None for value in patch.values()):
+            continue  # damping and friction only: the actuation stage applies those
+        element = joints.get(name)
+        if element is None:
+            raise SvhdescError(f"{where.get(name, 'config')}: joints.{name}: no joint {name!r} in the source")
+        limits = {key: patch[key] for key in LIMIT_KEYS if patch[key] is not None}
+        if limits:
+            limit = element.find("limit")
+            if limit is None:
+                limit = etree.SubElement(element, "limit")
+            for key, value in limits.items():
+                limit.set(key, repr(float(value)))
+        _patch_mimic(element, patch["mimic"], name, where)
+    return tree
+
+
+def _patch_mimic(element: etree._Element, mimic: str | None, name: str, where: Mapping[str, str]) -> None:
+    if mimic is None:
+        return
+    tag = element.find("mimic")
+    if tag is None:
+        raise SvhdescError(f"{where.get(name, 'config')}: joints.{name}.mimic: joint {name} has no <mimic> tag")
+    if mimic == DROP:
+        element.remove(tag)
+    else:
+        tag.set("joint", mimic)

@@ -1,0 +1,185 @@
+"""What a new user's robot needs of `svhdesc init` and `build` (issue 38), each on a small URDF made here with the
+fault of a robot of example-robot-data or pybullet_data: a name no ROS package takes (pybullet's TwoJointRobot),
+a comment inside <geometry> (the Husky), <mimic> tags naming joints without their side prefix (the Alex with
+PSYONIC hands), a continuous joint (TIAGo's wheels, the cartpole's pole), joints the source rates no drive for
+(pybullet's cartpole and pendulums: effort 0), a drive too weak to hold its arm at home (Baxter's shoulder s1), and
+a servo too stiff for the inertia behind it (finger_edu, Baxter's head_pan). Each test names its seeded fault.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import yaml
+
+from svhdesc.compiler.stability import MAX_OMEGA_DT, fastest_servo, servo_problem
+from svhdesc.core.settings.config import load_config
+from tests.support import exported, run_cli
+
+
+def link(name: str, mass: float, length: float = 0.2, inertia: float | None = None) -> str:
+    """A box link hanging along +z from its joint, its centre of mass half way up."""
+    i = inertia if inertia is not None else mass * length**2 / 12
+    return (
+        f'<link name="{name}"><inertial><origin xyz="0 0 {length / 2}"/><mass value="{mass}"/>'
+        f'<inertia ixx="{i}" iyy="{i}" izz="{i / 10}" ixy="0" ixz="0" iyz="0"/></inertial>'
+        f'<visual><origin xyz="0 0 {length / 2}"/><geometry><box size="0.04 0.04 {length}"/></geometry></visual></link>'
+    )
+
+
+def joint(name: str, parent: str, child: str, kind: str = "revolute", limit: str = "", z: float = 0.2) -> str:
+    limit = limit or '<limit lower="-1.5" upper="1.5" effort="50" velocity="2"/>'
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="0 0 {z}" rpy="0 0 0"/><axis xyz="0 1 0"/>{limit}</joint>'
+    )
+
+
+def urdf(tmp_path: Path, name: str, body: str, robot: str = "arm") -> Path:
+    path = tmp_path / f"{name}.urdf"
+    path.write_text(f'<?xml version="1.0"?>\n<robot name="{robot}">\n<link name="base"/>\n{body}\n</robot>\n')
+    return path
+
+
+def init(source: Path, *args: str) -> tuple[int, str, dict]:
+    config = source.with_suffix(".yaml")
+    result = run_cli("init", str(source), "--out", str(config), *args, in_process=True)
+    written = yaml.safe_load(config.read_text()) if result.returncode == 0 else {}
+    return result.returncode, result.stderr, written
+
+
+def model_of(config: Path) -> mujoco.MjModel:
+    mjcf = next(iter(exported(config, "{robot}.xml").values()))
+    return mujoco.MjModel.from_xml_string(mjcf.decode())
+
+
+def test_init_names_the_variant_as_build_accepts(tmp_path: Path) -> None:
+    """A robot named TwoJointRobot: init writes the variant twojointrobot, which the config loader takes (seeded
+    fault: starter writing robot.name: load_config refuses it at its line, naming the package rule)."""
+    source = urdf(tmp_path, "two", link("a", 1.0) + joint("j", "base", "a", z=0.0), robot="TwoJointRobot")
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    assert list(written["variants"]) == ["twojointrobot"]
+    assert list(load_config(source.with_suffix(".yaml")).variants) == ["twojointrobot"]
+
+
+def test_a_comment_inside_geometry_is_no_shape(tmp_path: Path) -> None:
+    """Seeded fault: reading shape[0] of <geometry>: 'unsupported geometry <cyfunction Comment>'."""
+    body = link("a", 1.0).replace("<geometry>", "<geometry><!-- the husky writes one here -->") + joint(
+        "j", "base", "a", z=0.0
+    )
+    code, stderr, _ = init(urdf(tmp_path, "commented", body))
+    assert code == 0, stderr
+
+
+HAND = "".join(
+    link(f"{side}_{finger}_{part}", 0.05, 0.04)
+    + joint(
+        f"{side}_{finger}_q{part}", f"{side}_{finger}_{part - 1}" if part > 1 else "base", f"{side}_{finger}_{part}"
+    )
+    for side in ("Left", "Right")
+    for finger in ("index", "ring")
+    for part in (1, 2)
+)
+
+
+def mimicked(body: str) -> str:
+    """Each q2 follows its finger's q1, named without the side prefix, as the Alex's URDF names them."""
+    for finger in ("index", "ring"):
+        for side in ("Left", "Right"):
+            tag = f'<mimic joint="{finger}_q1" multiplier="0.9" offset="0.0"/>'
+            name = f'<joint name="{side}_{finger}_q2" type="revolute">'
+            body = body.replace(name, name + tag)
+    return body
+
+
+def test_broken_mimics_are_named_with_their_fix_and_init_takes_it(tmp_path: Path) -> None:
+    """One error line lists every broken tag and the --joint options that re-point it; with them init writes
+    joints.NAME.mimic and a spec of four channels, and the build follows them (seeded fault: apply_joint_quirks not
+    called in the build: 'names joint index_q1, which is no movable joint')."""
+    source = urdf(tmp_path, "alex", mimicked(HAND))
+    code, stderr, _ = init(source)
+    assert code == 2 and "(4 such tags)" in stderr, stderr
+    fixes = stderr.split("to svhdesc init: ", 1)[1].split()
+    assert fixes[:2] == ["--joint", "Left_index_q2.mimic=Left_index_q1"] and len(fixes) == 8
+    code, stderr, written = init(source, *fixes)
+    assert code == 0, stderr
+    assert written["joints"]["Right_ring_q2"]["mimic"] == "Right_ring_q1"
+    spec = yaml.safe_load(source.with_name("alex.coupling.yaml").read_text())
+    assert sorted(c["name"] for c in spec["channels"]) == sorted(
+        f"{s}_{f}_q1" for s in ("Left", "Right") for f in ("index", "ring")
+    )
+    model = model_of(source.with_suffix(".yaml"))
+    assert model.neq == 4 and model.nu == 4
+
+
+def test_a_continuous_joint_gets_a_servo_without_limits(tmp_path: Path) -> None:
+    """TIAGo's wheels: a continuous joint's servo takes any angle (ctrllimited false; home's ctrl unclamped) (seeded
+    fault: Actuator.limited always true: 'an actuated joint needs lower < upper')."""
+    limit = '<limit effort="5" velocity="3"/>'
+    body = link("a", 1.0) + joint("wheel", "base", "a", "continuous", limit, z=0.0)
+    source = urdf(tmp_path, "wheel", body)
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    model = model_of(source.with_suffix(".yaml"))
+    assert model.nu == 1 and model.actuator_ctrllimited[0] == 0 and model.jnt_limited[0] == 0
+    assert model.actuator_forcerange[0].tolist() == [-5.0, 5.0]
+
+
+def _gravity_at_home(model: mujoco.MjModel) -> np.ndarray:
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    return data.qfrc_bias.copy()  # at rest: gravity alone
+
+
+def test_an_unrated_joint_gets_a_drive_that_holds_it(tmp_path: Path) -> None:
+    """pybullet's pendulums rate no drive (effort 0): init writes joints.NAME.effort, 1.5 x the gravity load at home
+    (the arm lies horizontal there), and velocity, marked as a guess; the built servo holds it (seeded fault: no
+    guess written: 'an actuated joint needs effort > 0 and velocity > 0')."""
+    limit = '<limit lower="0.5" upper="2.5" effort="0" velocity="0"/>'
+    source = urdf(tmp_path, "pendulum", link("a", 2.0, 0.5) + joint("hinge", "base", "a", limit=limit, z=0.0))
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    guess = written["joints"]["hinge"]
+    load = 2.0 * 9.81 * 0.25 * np.sin(written["keyframes"]["home"]["hinge"])  # m g (l/2) sin(q) about y
+    assert guess["effort"] == pytest.approx(1.5 * load, rel=1e-3) and guess["velocity"] == 1.0
+    assert "GUESS" in source.with_suffix(".yaml").read_text()
+    model = model_of(source.with_suffix(".yaml"))
+    assert model.actuator_forcerange[0][1] >= 1.4 * abs(_gravity_at_home(model)[0])
+
+
+def test_a_drive_too_weak_for_its_arm_at_home_is_raised_and_said(tmp_path: Path) -> None:
+    """Baxter's s1: rated below what its arm weighs on it at home; init raises the effort to 1.5 x the load and says
+    so (seeded fault: size_drive without the raise: the servo saturates and the arm sags)."""
+    limit = '<limit lower="0.5" upper="2.5" effort="3" velocity="2"/>'
+    source = urdf(tmp_path, "weak", link("a", 2.0, 0.5) + joint("shoulder", "base", "a", limit=limit, z=0.0))
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    effort = written["joints"]["shoulder"]["effort"]
+    assert effort > 3 and "cannot hold the robot at home for: shoulder (3 ->" in source.with_suffix(".yaml").read_text()
+    model = model_of(source.with_suffix(".yaml"))
+    assert model.actuator_forcerange[0][1] == effort >= 1.4 * abs(_gravity_at_home(model)[0])
+
+
+def test_a_servo_too_stiff_for_its_inertia_is_held_within_the_timestep(tmp_path: Path) -> None:
+    """finger_edu: 1000 N m on a 30 g phalanx. init caps kp so the servo's omega * timestep stays 0.5, and the built
+    model passes the build's check; the uncapped kp fails it (seeded fault: MAX_OMEGA_DT of drives.py raised to 50:
+    omega * dt 20)."""
+    limit = '<limit lower="-1.5" upper="1.5" effort="1000" velocity="1000"/>'
+    body = link("a", 0.03, 0.05, inertia=1e-5) + joint("knuckle", "base", "a", limit=limit, z=0.0)
+    source = urdf(tmp_path, "finger", body)
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    assert (
+        written["arm"]["kp"][0] < 1000 / 0.1
+        and "held lower where the timestep" in source.with_suffix(".yaml").read_text()
+    )
+    model = model_of(source.with_suffix(".yaml"))
+    assert fastest_servo(model)[0] <= 0.55 and servo_problem(model) == ""
+    model.actuator_gainprm[0, 0] = 1e4  # what kp = effort / 0.1 rad gives
+    model.actuator_biasprm[0, 1] = -1e4
+    assert fastest_servo(model)[0] > MAX_OMEGA_DT and "knuckle" in servo_problem(model)
