@@ -41,6 +41,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -402,6 +403,7 @@ def main() -> None:
     parser.add_argument("--missing", action="store_true", help="only the robots without a row yet")
     parser.add_argument("--no-validate", action="store_true", help="build only")
     parser.add_argument("--list", action="store_true", help="print the population, run nothing")
+    parser.add_argument("--jobs", type=int, default=1, help="robots measured at once (default 1)")
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     robots = population()
@@ -419,11 +421,14 @@ def main() -> None:
     rows: dict[str, Row | None] = {name: stored.get(name) for name in fixed}
     if args.missing:
         names = [n for n in names if rows[n] is None]
-    for name in sorted(names, key=lambda n: (fixed[n].movable, n)):  # the small ones first: early rows
-        row = measure(fixed[name], not args.no_validate)
-        print(f"{name}: {outcome(row)} {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
-        rows[name] = row
-        save(rows, left_out, args.out)  # after each robot: a long run leaves what it did
+    order = sorted(names, key=lambda n: (fixed[n].movable, n))  # the small ones first: early rows
+    with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:  # each robot runs in its own processes
+        futures = {pool.submit(measure, fixed[name], not args.no_validate): name for name in order}
+        for future in as_completed(futures):
+            row = future.result()
+            print(f"{row.robot}: {outcome(row)} {row.svhdesc} ({row.seconds:.0f} s)", flush=True)
+            rows[row.robot] = row
+            save(rows, left_out, args.out)  # after each robot: a long run leaves what it did
     save(rows, left_out, args.out)
     print(f"wrote {args.out}")
 

@@ -16,6 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.compiler.assets import Assets
+from svhdesc.errors import SvhdescError
+from svhdesc.ir import Robot
+
 MAX_OMEGA_DT = 1.0
 
 
@@ -49,16 +53,32 @@ def fastest_servo(model: Any) -> tuple[float, str, float, float]:
     return math.sqrt(max(highest, 0.0)) * float(model.opt.timestep), worst[1], worst[2], worst[3]
 
 
-def servo_problem(model: Any) -> str:
-    """Why the timestep cannot integrate the model's servos ("" if it can)."""
+def servo_problem(model: Any) -> tuple[str, str]:
+    """(why the timestep cannot integrate the model's servos, the fastest servo's name); ("", "") if it can."""
     omega_dt, name, kp, inertia = fastest_servo(model)
     if omega_dt <= MAX_OMEGA_DT:
-        return ""
+        return "", ""
     timestep = float(model.opt.timestep)
     stable_kp = inertia * (MAX_OMEGA_DT / timestep) ** 2
-    return (
+    problem = (
         f"its servos ring faster than the timestep resolves (omega * timestep {omega_dt:.3g} > {MAX_OMEGA_DT:g}): the "
         f"model would diverge. The fastest, {name} (kp {kp:.4g} on {inertia:.3g} of inertia at home), needs kp <= "
         f"{stable_kp:.3g} (arm.kp or hand.kp), or a timestep <= {timestep * MAX_OMEGA_DT / omega_dt:.2g} s "
         "(simulation.timestep)"
     )
+    return problem, name
+
+
+def check_servos(robot: Robot, assets: Assets, section: tuple[str, str]) -> Robot:
+    """The build's refusal of a model whose servos the timestep cannot integrate (``section``: where arm.kp and
+    hand.kp are written); the robot unchanged otherwise."""
+    import mujoco
+
+    from svhdesc.compiler.export.mjcf import export_mjcf
+
+    files = {f"assets/{name}": data for name, data in assets.files.items()}
+    problem, fastest = servo_problem(mujoco.MjModel.from_xml_string(export_mjcf(robot).decode(), files))
+    if problem:
+        at = section[1] if fastest in {c.joint for c in robot.channels} else section[0]
+        raise SvhdescError(f"{at}: {robot.name}: {problem}")
+    return robot

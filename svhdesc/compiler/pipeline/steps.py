@@ -23,6 +23,7 @@ from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.compiler.probes.rest_contacts import exclude_touching
+from svhdesc.compiler.stability import check_servos
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.collision_rules import collision_rules
 from svhdesc.compiler.stages.contact import add_contact
@@ -111,7 +112,11 @@ CHECKS: tuple[Check, ...] = (
 )
 
 # These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
-SIMULATED: tuple[Processor, ...] = (Processor("exclusions", exclude_touching, lambda plan: plan.settings.collision),)
+SIMULATED: tuple[Processor, ...] = (
+    Processor("exclusions", exclude_touching, lambda plan: plan.settings.collision),
+    # a model whose servos the timestep cannot integrate diverges: refused, never called built
+    Processor("checks", check_servos, lambda plan: (plan.settings.arm.at("kp"), plan.settings.hand.at("kp"))),
+)
 
 
 @dataclass

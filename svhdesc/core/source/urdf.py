@@ -233,9 +233,12 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
     axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
     if kind != "fixed" and math.hypot(*axis) < 1e-9:
         raise SvhdescError(f"{where}: zero joint axis {axis}")
-    lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+    try:
+        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+    except SvhdescError as exc:
+        raise SvhdescError(f"{exc}{_usable_limits(name)}") from None
     if kind in {"revolute", "prismatic"} and lower > upper:
-        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}")
+        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name)}")
     effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
     damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
     for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
@@ -255,6 +258,15 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
         damping=damping,
         friction=friction,
         source=where,
+    )
+
+
+def _usable_limits(joint: str) -> str:
+    """The settings that give a joint usable limits where its source's are not (pybullet writes lower > upper, or
+    +-1e16, for "no limit")."""
+    return (
+        f": give it usable limits with joints.{joint}.lower and .upper in the config (svhdesc init --joint "
+        f"{joint}.lower=L --joint {joint}.upper=U), or make it continuous in the source"
     )
 
 

@@ -17,7 +17,7 @@ import yaml
 
 from svhdesc.compiler.stability import MAX_OMEGA_DT, fastest_servo, servo_problem
 from svhdesc.core.settings.config import load_config
-from tests.support import exported, run_cli
+from tests.support import exported, fails_cleanly, run_cli
 
 
 def link(name: str, mass: float, length: float = 0.2, inertia: float | None = None) -> str:
@@ -179,7 +179,28 @@ def test_a_servo_too_stiff_for_its_inertia_is_held_within_the_timestep(tmp_path:
         and "held lower where the timestep" in source.with_suffix(".yaml").read_text()
     )
     model = model_of(source.with_suffix(".yaml"))
-    assert fastest_servo(model)[0] <= 0.55 and servo_problem(model) == ""
+    assert fastest_servo(model)[0] <= 0.55 and servo_problem(model) == ("", "")
     model.actuator_gainprm[0, 0] = 1e4  # what kp = effort / 0.1 rad gives
     model.actuator_biasprm[0, 1] = -1e4
-    assert fastest_servo(model)[0] > MAX_OMEGA_DT and "knuckle" in servo_problem(model)
+    assert fastest_servo(model)[0] > MAX_OMEGA_DT and servo_problem(model)[1] == "knuckle"
+
+
+def test_a_model_that_would_diverge_is_refused_at_build(tmp_path: Path) -> None:
+    """A config whose arm.kp the timestep cannot integrate (kp = effort / 0.1 rad of finger_edu) is one error line
+    at arm.kp's line, naming the joint and a kp that works; nothing is written (seeded fault: check_servos left out
+    of the pipeline: the model is built, and diverges in validate)."""
+    limit = '<limit lower="-1.5" upper="1.5" effort="1000" velocity="1000"/>'
+    source = urdf(
+        tmp_path, "finger", link("a", 0.03, 0.05, inertia=1e-5) + joint("knuckle", "base", "a", limit=limit, z=0.0)
+    )
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    config = source.with_suffix(".yaml")
+    text = config.read_text()
+    config.write_text(text.replace(f"kp: [{written['arm']['kp'][0]}]", "kp: [10000.0]"))
+    line = next(n for n, row in enumerate(config.read_text().splitlines(), start=1) if row.strip().startswith("kp:"))
+    error = fails_cleanly(
+        tmp_path / "out", "build", "--config", str(config), "--out", str(tmp_path / "out"), match="would diverge"
+    )
+    assert f"{config}:{line}: arm: " in error and "The fastest, knuckle" in error
+    assert not (tmp_path / "out").exists()
