@@ -99,7 +99,7 @@ def _srdf_free(path: Path, package: Path) -> str:
         root = _lenient_root(srdf)
         for joint in root.iter("virtual_joint") if root is not None else ():
             if joint.get("type") in FREE:
-                return f"{srdf.relative_to(SITE)}: virtual_joint {joint.get('name')} is {joint.get('type')}"
+                return f"{portable(str(srdf))}: virtual_joint {joint.get('name')} is {joint.get('type')}"
     return ""
 
 

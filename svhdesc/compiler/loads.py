@@ -1,5 +1,6 @@
 """What each joint of a robot carries at a pose, from the IR's inertials alone: the gravity torque (force for a
-sliding joint) it must hold, and the inertia about its axis that its servo moves (the mass matrix's diagonal).
+sliding joint) it must hold, the inertia about its axis that its servo moves (the mass matrix's diagonal), and the
+joint-space mass matrix itself.
 
 ``svhdesc init`` sizes drives with these before anything is built: an unrated joint gets an effort that holds the
 robot at ``home``, and no servo is stiffer than the timestep can integrate on the inertia behind it. Scalar and
@@ -123,3 +124,71 @@ def joint_loads(robot: Robot, pose: dict[str, float], masses: dict[str, Inertial
             inertia.append(spin + inertial.mass * _dot(lever, lever))
         loads[joint.name] = Load(math.fsum(gravity), math.fsum(inertia))
     return loads
+
+
+def _columns(robot: Robot, frames: dict[str, np.ndarray]) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+    """Each movable joint's (type, world axis, world origin)."""
+    found = {}
+    for joint in robot.joints:
+        if joint.movable:
+            frame = frames[joint.child]
+            axis = exact.matmul(frame[:3, :3], _unit(joint.axis).reshape(3, 1)).reshape(3)
+            found[joint.name] = (joint.type, axis, frame[:3, 3])
+    return found
+
+
+def mass_matrix(
+    robot: Robot, pose: dict[str, float], masses: dict[str, Inertial]
+) -> tuple[list[str], list[list[float]]]:
+    """The joint-space mass matrix at ``pose`` over the movable joints (their names, in the robot's order): for each
+    link, m Jv^T Jv + Jw^T I Jw with the Jacobian of its centre of mass."""
+    frames = link_frames(robot, pose)
+    columns = _columns(robot, frames)
+    names = list(columns)
+    index = {name: i for i, name in enumerate(names)}
+    parent_joint = {j.child: j for j in robot.joints}
+    matrix = [[0.0] * len(names) for _ in names]
+    for link, inertial in masses.items():
+        if inertial is None or inertial.mass <= 0 or link not in frames:
+            continue
+        rotation = frames[link][:3, :3]
+        centre = frames[link][:3, 3] + exact.matmul(rotation, np.array(inertial.com).reshape(3, 1)).reshape(3)
+        world = exact.matmul(exact.matmul(rotation, _tensor(inertial)), rotation.T)
+        chain, name = [], link
+        while name in parent_joint:  # the joints that move this link
+            joint = parent_joint[name]
+            if joint.name in index:
+                chain.append(joint.name)
+            name = joint.parent
+        jacobian = {}
+        for joint_name in chain:
+            kind, axis, origin = columns[joint_name]
+            if kind == "prismatic":
+                jacobian[joint_name] = (axis, np.zeros(3))
+            else:
+                jacobian[joint_name] = (_cross(axis, centre - origin), axis)
+        for a in chain:
+            for b in chain:
+                (va, wa), (vb, wb) = jacobian[a], jacobian[b]
+                spin = _dot(wa, exact.matmul(world, wb.reshape(3, 1)).reshape(3))
+                matrix[index[a]][index[b]] += inertial.mass * _dot(va, vb) + spin
+    return names, matrix
+
+
+def inverse_diagonal(matrix: list[list[float]], floor: float = 1e-12) -> list[float]:
+    """The diagonal of the inverse of a symmetric positive semi-definite matrix, by Gauss-Jordan elimination in
+    scalar arithmetic (the same bits on every CPU); a pivot below ``floor`` is raised to it (a joint that moves
+    nothing with mass)."""
+    n = len(matrix)
+    work = [[*row, *(1.0 if i == j else 0.0 for j in range(n))] for i, row in enumerate(matrix)]
+    for col in range(n):
+        pivot = max(work[col][col], floor)
+        work[col][col] = pivot
+        for j in range(2 * n):
+            work[col][j] = work[col][j] / pivot if j != col else 1.0
+        for row in range(n):
+            if row != col and work[row][col] != 0.0:
+                factor = work[row][col]
+                for j in range(2 * n):
+                    work[row][j] -= factor * work[col][j]
+    return [work[i][n + i] for i in range(n)]

@@ -15,21 +15,26 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import trimesh
 import yaml
 from lxml import etree
 
-from svhdesc.compiler.drives import STIFF_AT, Drive, size_drive
-from svhdesc.compiler.loads import Load, joint_loads
+from svhdesc.compiler.drives import STIFF_AT, Drive, cap_stiffness, size_drive
+from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, mass_matrix
+from svhdesc.compiler.stages.assets import Assets
+from svhdesc.compiler.stages.inertials import cylinder_inertial, shape_of
+from svhdesc.core.frames import pose_matrix
 from svhdesc.core.inertia import inertial_problem
 from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
 from svhdesc.core.settings.schema import Simulation
+from svhdesc.core.source.meshes import MeshError, load_mesh
 from svhdesc.core.source.packages import package_name_of
 from svhdesc.core.source.quirks import apply_joint_quirks
 from svhdesc.core.source.urdf import read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
-from svhdesc.ir import Inertial, Joint, Robot
+from svhdesc.ir import Geometry, Inertial, Joint, Link, Robot
 
 ARMATURE = 0.1  # kg m^2 or kg: the channels' and coupled joints' armature
 GUESSED_MASS = 0.1  # kg: a link with geometry and no inertial in the source (init says so; weigh it)
@@ -161,6 +166,7 @@ def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, A
     if not movable:
         raise SvhdescError(f"{source}: robot {robot.name} has no movable joint: nothing to drive")
     arm = [j for j in movable if j.name not in coupled and j.name not in channels]
+    joints_by = {j.name: j for j in robot.joints}
     lines = [
         f"# Starter config for {source.name} (robot {robot.name}), written by `svhdesc init`.",
         "# Build and check it with",
@@ -178,7 +184,8 @@ def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, A
         lines += _channel_blocks(spec, robot, out)
     timestep = 0.001 if spec is not None else Simulation().timestep
     home = {j.name: _home(j) for j in movable if j.name not in coupled}
-    drives = _drives(robot, arm, home, timestep)
+    hand_kp = max((_kp(joints_by[c]) for c in channels), default=0.0)
+    drives = _drives(robot, arm, home, timestep, {c: hand_kp for c in channels})
     if arm:
         lines += _arm_blocks(arm, drives, timestep, _given(quirks))
     elif quirks:
@@ -214,14 +221,43 @@ def _masses_for_loads(robot: Robot) -> dict[str, Inertial]:
                 found[link.name] = Inertial(GUESSED_MASS, (0.0, 0.0, 0.0), (0.0,) * 6)  # type: ignore[arg-type]
             continue
         if inertial_problem(inertial.mass, inertial.inertia) is not None:
-            inertial = Inertial(max(inertial.mass, 0.0), inertial.com, (0.0,) * 6)  # type: ignore[arg-type]
+            inertial = _recomputed(link, inertial)
         found[link.name] = inertial
     return found
 
 
-def _drives(robot: Robot, arm: list[Joint], home: dict[str, float], timestep: float) -> dict[str, Drive]:
-    loads: dict[str, Load] = joint_loads(robot, home, _masses_for_loads(robot))
-    return {j.name: size_drive(j.type, j.effort, j.velocity, loads.get(j.name), timestep) for j in arm}
+def _recomputed(link: Link, inertial: Inertial) -> Inertial:
+    """An invalid source inertial as the build replaces it: the cylinder fitted to the link's geometry at its mass
+    (``inertials.cylinder_inertial``); only the mass where the geometry cannot be read here."""
+    if inertial.mass > 0 and link.has_geometry:
+        try:
+            shapes = [_source_shape(g) for g in (link.collisions or link.visuals)]
+            return cylinder_inertial(trimesh.util.concatenate(shapes), inertial.mass)
+        except (SvhdescError, MeshError, OSError, ValueError):
+            pass
+    return Inertial(max(inertial.mass, 0.0), inertial.com, (0.0,) * 6)  # type: ignore[arg-type]
+
+
+def _source_shape(geometry: Geometry) -> trimesh.Trimesh:
+    """A source geometry as the build's inertials stage sees it once its mesh is baked (scale applied)."""
+    if geometry.kind != "mesh":
+        return shape_of(geometry, Assets())
+    mesh = load_mesh(Path(geometry.mesh or ""), geometry.scale)
+    mesh.apply_transform(pose_matrix(geometry.origin))
+    return mesh
+
+
+def _drives(
+    robot: Robot, arm: list[Joint], home: dict[str, float], timestep: float, channel_kp: dict[str, float]
+) -> dict[str, Drive]:
+    """Each arm joint's drive at ``home``, the kps held within what ``timestep`` integrates with the channels'."""
+    masses = _masses_for_loads(robot)
+    loads: dict[str, Load] = joint_loads(robot, home, masses)
+    drives = {j.name: size_drive(j.type, j.effort, j.velocity, loads.get(j.name)) for j in arm}
+    names, matrix = mass_matrix(robot, home, masses)
+    mobility = dict(zip(names, inverse_diagonal(matrix)))
+    fixed = sum(kp * mobility.get(name, 0.0) * timestep**2 for name, kp in channel_kp.items())
+    return cap_stiffness(drives, mobility, timestep, fixed)
 
 
 def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:

@@ -20,7 +20,7 @@ from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Inertial, Link, Robot
 
 
-def _shape(geometry: Geometry, assets: Assets) -> trimesh.Trimesh:
+def shape_of(geometry: Geometry, assets: Assets) -> trimesh.Trimesh:
     if geometry.kind == "mesh":
         mesh = assets.meshes[geometry.mesh or ""].copy()
     elif geometry.kind == "box":
@@ -39,7 +39,7 @@ def _shape(geometry: Geometry, assets: Assets) -> trimesh.Trimesh:
 
 def link_solid(link: Link, assets: Assets) -> trimesh.Trimesh:
     """The link's solid in its own frame: collision shapes, or visual ones if it has none."""
-    shapes = [_shape(g, assets) for g in (link.collisions or link.visuals)]
+    shapes = [shape_of(g, assets) for g in (link.collisions or link.visuals)]
     return trimesh.util.concatenate(shapes)
 
 

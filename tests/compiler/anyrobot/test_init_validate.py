@@ -12,6 +12,11 @@ robot and writes docs/results/parity.md). What each failed before, and the seede
   Kinova simulate 'mjWARN_BADQACC': init writing no damping (joints.NAME.damping) brings both back.
 - Kinova: range_of_motion 'stops at ... nothing in contact' on its 0.63 rad/s joints (drive_speed).
 - Panda: coupling_tracking 'panda_finger_joint2 0.00308' (the arm slamming its fingers into its base).
+- pybullet's cartpole: build 'an actuated joint needs lower < upper' (its continuous pole), then 'effort > 0' (its
+  pole rated 0): a servo without limits, and init's guessed drive (drives.py) bring it through.
+- pybullet's TwoJointRobot: build 'not a valid ROS package name': init writing robot.name brings it back.
+- finger_edu: validate 'mjWARN_BADQACC', gravity_hold 8e6 mrad (kp 10^4 on 10^-4 kg m^2): drives.py's cap on kp
+  (MAX_TRACE of drives.py raised to 50 brings it back, and then the build refuses the model: stability.py).
 """
 
 from __future__ import annotations
@@ -36,6 +41,10 @@ ROBOTS = {
     "kinova": ERD / "kinova_description/robots/kinova.urdf",
     "panda_pb": PYBULLET / "franka_panda/panda.urdf",
     "talos": ERD / "talos_data/robots/talos_reduced.urdf",
+    # A slice of the population benchmarks/parity.py runs whole, one robot per fault svhdesc now works around:
+    "cartpole_pb": PYBULLET / "cartpole.urdf",  # a continuous joint; joints rated effort 0
+    "twojoint_pb": PYBULLET / "TwoJointRobot_wo_fixedJoints.urdf",  # a robot name no ROS package takes
+    "finger_edu": ERD / "finger_edu_description/robots/finger_edu.urdf",  # 1000 N m on a 30 g phalanx
 }
 CHECKS = "simulate,coupling_tracking,gravity_hold,range_of_motion,load_limits,self_collision"
 FULL = {"allegro"}  # every check
