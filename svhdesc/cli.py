@@ -206,6 +206,7 @@ def build_command(
     from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
     from svhdesc.compiler.pipeline import builder as builder
     from svhdesc.compiler.pipeline.timings import Timings
+    from svhdesc.compiler.probes.cache import recomputing
 
     # The progress bar shows only on a terminal (HullSource checks); CI logs stay quiet. --check trusts no hull it
     # did not compute unless told to: a cache entry can be forged within the fit check's tolerance (reliability.md).
@@ -213,7 +214,8 @@ def build_command(
     hulls = HullSource(HullCache(default_cache_dir()), jobs=jobs, force=recompute, progress=True)
     timings = Timings()
     run = builder.check if check else builder.build
-    result = run(config, [v.name for v in stale], out, package_dirs, hulls, timings)
+    with recomputing(check and not trust_cache):  # and the sampled results, like the hulls
+        result = run(config, [v.name for v in stale], out, package_dirs, hulls, timings)
     if show_timings:
         _report_timings(timings, hulls.counts)
     if check:

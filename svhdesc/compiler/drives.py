@@ -3,7 +3,7 @@
 - kp = effort / STIFF_AT (full effort 0.1 rad, or 5 mm, from the target);
 - capped so that the servos' natural frequencies on the robot's inertia at ``home`` stay within what the timestep
   integrates. MuJoCo integrates a servo's stiffness explicitly: the step is unstable once omega * dt passes 2, and
-  the build refuses a model above 1 (svhdesc/compiler/stability.py). The frequencies are the eigenvalues of
+  the build refuses a model above 1 (svhdesc/compiler/probes/stability.py). The frequencies are the eigenvalues of
   M^-1 K (M the joint-space mass matrix, K the servos' kp), which are at most its trace, sum kp_i (M^-1)_ii; the
   kps are cut, the largest terms first (water-filling), until that sum times dt^2 is MAX_TRACE. The finger of
   example-robot-data's finger_edu, rated 1000 N m on 10^-4 kg m^2, rang at 10^4 rad/s against a 2 ms step and blew

@@ -19,9 +19,9 @@ import trimesh
 import yaml
 from lxml import etree
 
+from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.drives import STIFF_AT, Drive, cap_stiffness, size_drive
 from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, mass_matrix
-from svhdesc.compiler.stages.assets import Assets
 from svhdesc.compiler.stages.inertials import cylinder_inertial, shape_of
 from svhdesc.core.frames import pose_matrix
 from svhdesc.core.inertia import inertial_problem

@@ -23,7 +23,7 @@ from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.compiler.probes.rest_contacts import exclude_touching
-from svhdesc.compiler.stability import check_servos
+from svhdesc.compiler.probes.stability import check_servos
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
 from svhdesc.compiler.stages.collision_rules import collision_rules
 from svhdesc.compiler.stages.contact import add_contact

@@ -3,6 +3,7 @@ can say and no exporter may compute.
 
 - ``rest_contacts``: the link pairs touching at rest; the pipeline runs it as the last processor (its result is the
   IR's contact exclusions);
+- ``stability``: whether the timestep integrates the model's servos; the pipeline refuses a model it would not;
 - ``damping``, ``collision_matrix``, ``batch_capacities``: run by the pipeline on the finished model, once its
   assets are written, for the outputs that name them (``export/registry.py``: ``Output.probes``); their results
   reach the exporters as ``Probed``;

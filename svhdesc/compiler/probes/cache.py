@@ -12,13 +12,28 @@ import json
 import os
 import tempfile
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any, TypeVar
 
 from svhdesc.compiler.decompose.source import default_cache_dir
 
 T = TypeVar("T")
+
+# Set while a build trusts no cached result (``build --check`` without ``--trust-cache``): every result is computed
+# again and replaces its entry, as the hulls are decomposed again.
+RECOMPUTE: ContextVar[bool] = ContextVar("recompute", default=False)
+
+
+@contextmanager
+def recomputing(enabled: bool = True) -> Iterator[None]:
+    token = RECOMPUTE.set(enabled)
+    try:
+        yield
+    finally:
+        RECOMPUTE.reset(token)
 
 
 def cache_dir(kind: str) -> Path:
@@ -40,13 +55,14 @@ def content_key(parts: Iterable[bytes], assets: dict[str, bytes]) -> str:
 def remembered(
     cache: Path, key: str, compute: Callable[[], T], encode: Callable[[T], Any], decode: Callable[[Any], T]
 ) -> T:
-    """``compute()``'s result, from the entry ``key`` when it holds one that passes its check.
+    """``compute()``'s result, from the entry ``key`` when it holds one that passes its check (never while
+    ``recomputing``).
 
     An entry names its key and carries the digest of its value: another key's entry (a copied file) or an edited
     value is one warning and is computed again, never used.
     """
     entry = cache / f"{key}.json"
-    found = _read(entry, key)
+    found = None if RECOMPUTE.get() else _read(entry, key)
     if found is not None:
         try:
             return decode(found)

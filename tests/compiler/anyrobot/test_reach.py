@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
-from svhdesc.compiler.stability import MAX_OMEGA_DT, fastest_servo, servo_problem
+from svhdesc.compiler.probes.stability import MAX_OMEGA_DT, fastest_servo, servo_problem
 from svhdesc.core.settings.config import load_config
 from tests.support import exported, fails_cleanly, run_cli
 

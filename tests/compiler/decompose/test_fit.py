@@ -4,7 +4,8 @@ given the 8 hulls of ``n`` (instead of its 16), and one box over ``z``'s bounds,
 
 The box is refused. The other two are decompositions of meshes that differ from ``t`` and ``o`` by less than CoACD's
 own distance from either, so no check of the hulls against the mesh can refuse them: they are the cache's trust
-boundary (docs/reliability.md), which ``build --check`` does not cross by default (tests/compiler/build/test_check.py).
+boundary (docs/reliability.md), which ``build --check`` does not cross by default
+(tests/compiler/pipeline/test_hull_trust.py).
 """
 
 from __future__ import annotations

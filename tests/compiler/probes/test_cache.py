@@ -107,3 +107,32 @@ def test_collision_matrix_entry_is_the_computed_matrix(tmp_path: Path, monkeypat
     moved = replace(compiled.robot, joints=tuple(replace(j, upper=j.upper * 0.5) for j in compiled.robot.joints))
     collision_matrix.cached_collision_matrix(moved, compiled.assets)
     assert len(computed) == 2
+
+
+def test_a_result_rewritten_with_its_digest_is_sampled_again_while_recomputing(tmp_path: Path) -> None:
+    """An entry whose value was rewritten together with its digest passes every check of an entry: served to a
+    build, never to a check that trusts no cache (``recomputing``, which build --check sets), which samples again and
+    heals the entry (seeded fault: remembered reading the entry whatever RECOMPUTE says)."""
+    import hashlib
+    import json
+
+    from svhdesc.compiler.probes.cache import recomputing
+
+    calls: list[int] = []
+
+    def compute() -> dict[str, int]:
+        calls.append(1)
+        return {"njmax": 7}
+
+    def use() -> dict[str, int]:
+        return remembered(tmp_path, "k" * 64, compute, lambda v: v, lambda v: v)
+
+    assert use() == {"njmax": 7}
+    entry = tmp_path / f"{'k' * 64}.json"
+    forged = {"njmax": 1}
+    digest = hashlib.sha256(json.dumps(forged, sort_keys=True).encode()).hexdigest()
+    entry.write_text(json.dumps({"key": "k" * 64, "sha256": digest, "value": forged}))
+    assert use() == forged and len(calls) == 1  # the documented trust
+    with recomputing():
+        assert use() == {"njmax": 7} and len(calls) == 2
+    assert use() == {"njmax": 7} and len(calls) == 2  # healed
