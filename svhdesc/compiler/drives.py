@@ -3,9 +3,10 @@
 - kp = effort / STIFF_AT (full effort 0.1 rad, or 5 mm, from the target);
 - capped so that the servos' natural frequencies on the robot's inertia at ``home`` stay within what the timestep
   integrates. MuJoCo integrates a servo's stiffness explicitly: the step is unstable once omega * dt passes 2, and
-  the build refuses a model above 1 (svhdesc/compiler/probes/stability.py). The frequencies are the eigenvalues of
-  M^-1 K (M the joint-space mass matrix, K the servos' kp), which are at most its trace, sum kp_i (M^-1)_ii; the
-  kps are cut, the largest terms first (water-filling), until that sum times dt^2 is MAX_TRACE. The finger of
+  the build refuses a model its step cannot integrate (svhdesc/compiler/probes/stability.py). The frequencies are
+  the eigenvalues of M^-1 K (M the joint-space mass matrix, K the servos' kp), which are at most its trace,
+  sum kp_i (M^-1)_ii; the kps are cut, the largest terms first (water-filling), until that sum times dt^2 is
+  MAX_TRACE, each term relaxed by the damping init writes for the joint (``cap_stiffness``). The finger of
   example-robot-data's finger_edu, rated 1000 N m on 10^-4 kg m^2, rang at 10^4 rad/s against a 2 ms step and blew
   up (mjWARN_BADQACC) with kp = 10^4;
 - a joint whose rated effort cannot hold what gravity puts on it at ``home`` gets ``joints.NAME.effort`` =
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 from svhdesc.compiler.loads import Load
 
 STIFF_AT = {"revolute": 0.1, "continuous": 0.1, "prismatic": 0.005}
-MAX_TRACE = 0.81  # sum kp_i (M^-1)_ii dt^2 at most: every omega * dt <= 0.9 (the build refuses above 1)
+MAX_TRACE = 0.81  # sum kp_i (M^-1)_ii dt^2 at most: every undamped omega * dt <= 0.9
 MIN_ACCELERATION = 10.0  # rad/s^2 (m/s^2): what a guessed drive can give its load at least
 HOLD_MARGIN = 1.5  # a drive holds this multiple of its gravity load at home
 GUESSED_VELOCITY = {"revolute": 1.0, "continuous": 1.0, "prismatic": 0.1}  # rad/s, m/s
@@ -69,11 +70,20 @@ def size_drive(kind: str, effort: float, velocity: float, load: Load | None) -> 
 
 
 def cap_stiffness(
-    drives: dict[str, Drive], mobility: dict[str, float], timestep: float, fixed: float = 0.0
+    drives: dict[str, Drive],
+    mobility: dict[str, float],
+    timestep: float,
+    damping: dict[str, float] | None = None,
+    fixed: float = 0.0,
 ) -> dict[str, Drive]:
-    """``drives`` with the largest kp_i (M^-1)_ii dt^2 terms cut to one level, so that their sum, with ``fixed``
-    (the terms of servos not sized here: a hand's channels), is MAX_TRACE; ``mobility``: (M^-1)_ii per joint."""
-    terms = {name: drive.kp * mobility.get(name, 0.0) * timestep**2 for name, drive in drives.items()}
+    """``drives`` with the largest terms kp_i (M^-1)_ii dt^2 / (1 + dt c_i (M^-1)_ii / 2) cut to one level, so that
+    their sum, with ``fixed`` (the terms of servos not sized here: a hand's channels), is MAX_TRACE; ``mobility``:
+    (M^-1)_ii per joint, ``damping``: c_i, the joint damping init writes (MuJoCo integrates it implicitly, which
+    widens the stable range of one joint to omega^2 dt^2 < 4 + 2 dt c / m: a light joint damped hard takes a stiff
+    servo)."""
+    damping = damping or {}
+    allowance = {n: 1.0 + timestep * damping.get(n, 0.0) * mobility.get(n, 0.0) / 2.0 for n in drives}
+    terms = {n: d.kp * mobility.get(n, 0.0) * timestep**2 / allowance[n] for n, d in drives.items()}
     budget = MAX_TRACE - fixed
     if sum(terms.values()) <= budget or budget <= 0:
         return drives
@@ -87,7 +97,7 @@ def cap_stiffness(
     capped = {}
     for name, drive in drives.items():
         if terms[name] > level:
-            kp = _round_down(level / (mobility[name] * timestep**2))
+            kp = _round_down(level * allowance[name] / (mobility[name] * timestep**2))
             capped[name] = Drive(kp, drive.effort, drive.velocity, drive.guessed, True, drive.raised)
         else:
             capped[name] = drive

@@ -257,7 +257,8 @@ def _drives(
     names, matrix = mass_matrix(robot, home, masses)
     mobility = dict(zip(names, inverse_diagonal(matrix)))
     fixed = sum(kp * mobility.get(name, 0.0) * timestep**2 for name, kp in channel_kp.items())
-    return cap_stiffness(drives, mobility, timestep, fixed)
+    damping = {j.name: _damping(j, drives[j.name]) for j in arm}
+    return cap_stiffness(drives, mobility, timestep, damping, fixed)
 
 
 def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:
