@@ -356,6 +356,22 @@ def scalar_joints(model: Any) -> list[int]:
     return [j for j in range(model.njnt) if int(model.jnt_type[j]) in kinds]
 
 
+def random_target_start(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+    """Data at the ``home`` keyframe (qpos0 without one), and each actuator's range for random targets: its
+    ctrlrange, +-1 for a servo without limits (a continuous joint's). What validate's simulate check and the build's
+    trial run both drive a model with."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    if home >= 0:
+        mujoco.mj_resetDataKeyframe(model, data, home)
+    low, high = model.actuator_ctrlrange.T.copy()
+    unlimited = model.actuator_ctrllimited == 0
+    low[unlimited], high[unlimited] = -1.0, 1.0
+    return data, low, high
+
+
 def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
     """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
     import mujoco

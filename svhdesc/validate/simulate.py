@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.model import couplings
+from svhdesc.model import random_target_start as start
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import FAIL, Check, fmt, not_run, skipped, verdict
@@ -27,15 +28,7 @@ def warning_counts(data: object) -> dict[str, int]:
 
 def random_target_start(model: Any, seed: int) -> tuple[Any, np.random.Generator, np.ndarray, np.ndarray]:
     """Data at the `home` keyframe, the seeded generator, and each actuator's target range (unit if unlimited)."""
-    import mujoco
-
-    data = mujoco.MjData(model)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if home >= 0:
-        mujoco.mj_resetDataKeyframe(model, data, home)
-    low, high = model.actuator_ctrlrange.T.copy()
-    unlimited = model.actuator_ctrllimited == 0
-    low[unlimited], high[unlimited] = -1.0, 1.0
+    data, low, high = start(model)
     return data, np.random.default_rng(seed), low, high
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from svhdesc.compiler.assets import Assets
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Robot
+from svhdesc.model import random_target_start
 
 STIFFNESS_MARGIN = 1.25  # the servos may be this much stiffer (the inertia this much lighter) before the step grows
 SETTLE, DRIVE, TARGET_PERIOD = 0.5, 1.0, 0.05  # s: the build's trial run
@@ -108,13 +109,7 @@ def diverges(model: Any) -> tuple[float, str] | None:
     """(the time, the joint) where MuJoCo first finds the model diverging in the trial run, or None."""
     import mujoco
 
-    data = mujoco.MjData(model)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if home >= 0:
-        mujoco.mj_resetDataKeyframe(model, data, home)
-    low, high = model.actuator_ctrlrange.T.copy()
-    unlimited = model.actuator_ctrllimited == 0
-    low[unlimited], high[unlimited] = data.ctrl[unlimited] - 1.0, data.ctrl[unlimited] + 1.0
+    data, low, high = random_target_start(model)
     rng, period = np.random.default_rng(0), max(1, round(TARGET_PERIOD / model.opt.timestep))
     settle = round(SETTLE / model.opt.timestep)
     for step in range(settle + round(DRIVE / model.opt.timestep)):
