@@ -239,6 +239,8 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
         raise SvhdescError(f"{exc}{_usable_limits(name)}") from None
     if kind in {"revolute", "prismatic"} and lower > upper:
         raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name)}")
+    if kind in {"revolute", "prismatic"} and lower == upper:  # no range: pybullet reads it as no limit
+        raise SvhdescError(f"{where}: its limits give it no range ({lower:g} .. {upper:g}){_usable_limits(name)}")
     effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
     damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
     for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):

@@ -43,9 +43,11 @@ def test_chain_is_composed_onto_the_first_leader(tmp_path: Path) -> None:
 
 
 def test_leader_without_limits(tmp_path: Path) -> None:
-    robot, mimics = _robot(tmp_path, "")
+    robot, mimics = _robot(tmp_path, '<limit lower="0" upper="1" effort="0" velocity="2"/>')
     with pytest.raises(SvhdescError, match="joint drive leads <mimic> joints"):
         spec_from_mimics(robot, mimics, tmp_path / "g.urdf")  # type: ignore[arg-type]
+    with pytest.raises(SvhdescError, match="joint drive: its limits give it no range"):
+        _robot(tmp_path, "")  # no <limit>: reading names the joint and the settings that give it limits
 
 
 def test_mimic_on_a_fixed_joint_is_ignored_with_one_warning(tmp_path: Path) -> None:
