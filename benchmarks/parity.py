@@ -27,8 +27,9 @@ For each fixed-base robot:
 
 Every step that fails is reported with its error line; nothing is retried or patched. The URDF's mass is the sum of
 its ``<inertial><mass>`` values. Each robot's row is kept in docs/results/parity.json, so a run of some robots
-(``--robots``) rewrites the page with the others' last rows; the page says which population it covers and the
-README's parity block is refilled from it (benchmarks/collect.py's ``fill_blocks``). Not a test: each robot takes
+(``--robots``) rewrites the page with the others' last rows; the page says which population it covers, and the
+README's parity block (the page's first table: the summary) and benchmarks/README.md are refilled from it, as
+benchmarks/collect.py does. Not a test: each robot takes
 tens of seconds to minutes.
 """
 
@@ -55,7 +56,8 @@ import numpy as np  # noqa: E402
 from lxml import etree  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
-from collect import PROJECT_README, fill_blocks  # noqa: E402
+from collect import PROJECT_README, README, fill_blocks  # noqa: E402
+from collect import render as collected  # noqa: E402
 from results import write  # noqa: E402
 
 SITE = Path(np.__file__).resolve().parents[1]  # site-packages, where pip put the robots' wheels
@@ -393,8 +395,9 @@ def save(rows: dict[str, Row | None], left_out: list[Candidate], out: Path) -> N
     kept = {name: asdict(row) for name, row in rows.items() if row is not None}
     out.with_suffix(".json").write_text(json.dumps(kept, indent=1, sort_keys=True) + "\n")
     write(out.stem, TITLE, render(rows, left_out), out.parent)
-    if out == OUT:
+    if out == OUT:  # what benchmarks/collect.py makes of the pages: the README's parity block, benchmarks/README.md
         PROJECT_README.write_text(fill_blocks(PROJECT_README.read_text(encoding="utf-8")), encoding="utf-8")
+        README.write_text(collected())
 
 
 def main() -> None:
