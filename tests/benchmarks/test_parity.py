@@ -21,11 +21,17 @@ ROWS = BENCHMARKS.parent / "docs" / "results" / "parity.json"
 PAGE = ROWS.with_suffix(".md")
 
 
+def _rows() -> dict:
+    if not ROWS.is_file():  # the population's run writes it (hours): until then the page is the previous table's
+        pytest.skip(f"{ROWS.name} not written yet: run python benchmarks/parity.py")
+    return json.loads(ROWS.read_text())
+
+
 def test_the_table_covers_exactly_the_enumerated_population() -> None:
     population = parity.fixed_base()
     if not population:
         pytest.skip("example-robot-data and pybullet are not installed (the test extra)")
-    rows = json.loads(ROWS.read_text())
+    rows = _rows()
     assert sorted(rows) == sorted(population), {
         "not in the table": sorted(set(population) - set(rows)),
         "not in the population": sorted(set(rows) - set(population)),
@@ -38,7 +44,7 @@ def test_the_table_covers_exactly_the_enumerated_population() -> None:
 
 def test_every_row_that_did_not_pass_says_why() -> None:
     """A refusal carries its error line; a failed validate names each failing check with its detail."""
-    rows = {name: parity.Row(**row) for name, row in json.loads(ROWS.read_text()).items()}
+    rows = {name: parity.Row(**row) for name, row in _rows().items()}
     unexplained = []
     for name, row in rows.items():
         kind = parity.outcome(row)
