@@ -166,6 +166,9 @@ def batch_model_file(name: str) -> str:
     return f"{name}_batch.xml"
 
 
+USD_FILE = "{robot}.usda"  # Isaac Sim / Isaac Lab and Newton: one USD layer with the couplings as mimic joints
+
+
 # --- A built variant: its folder and files ----------------------------------------------------------------------
 
 
@@ -185,6 +188,11 @@ class Model:
     @property
     def scene_path(self) -> Path:
         return self.directory / "scene.xml"
+
+    @property
+    def usd_path(self) -> Path:
+        """The USD layer (Isaac Sim / Isaac Lab, Newton): articulation, drives, the couplings as mimic joints."""
+        return self.directory / USD_FILE.format(robot=self.name)
 
     @property
     def batch_path(self) -> Path:

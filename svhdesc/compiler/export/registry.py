@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from svhdesc.compiler.assets import Assets
-from svhdesc.compiler.export import batch, ros2, ros2_control, ros2_launch
+from svhdesc.compiler.export import batch, ros2, ros2_control, ros2_launch, usd
 from svhdesc.compiler.export.batch import Capacities
 from svhdesc.compiler.export.mjcf import export_mjcf, export_scene
 from svhdesc.compiler.export.moveit import (
@@ -30,7 +30,7 @@ from svhdesc.compiler.export.package import export_package_xml, mesh_uri_prefix
 from svhdesc.compiler.export.ros1 import export_connector, export_launch, export_node_script
 from svhdesc.compiler.export.urdf import export_urdf
 from svhdesc.ir import Robot
-from svhdesc.model import BATCH_SCENE_FILE, NODE_SCRIPT, batch_model_file
+from svhdesc.model import BATCH_SCENE_FILE, NODE_SCRIPT, USD_FILE, batch_model_file
 
 EXECUTABLE = 0o755
 
@@ -117,6 +117,8 @@ OUTPUTS: tuple[Output, ...] = (
     Output("{robot}.urdf", lambda b: export_urdf(b.robot, mesh_uri_prefix(b.robot))),
     Output("{robot}.xml", lambda b: b.mjcf),
     Output("scene.xml", lambda b: export_scene(b.robot, f"{b.robot.name}.xml")),
+    # Isaac Sim / Isaac Lab (PhysX) and Newton: the couplings as NewtonMimicAPI and PhysxMimicJointAPI.
+    Output(USD_FILE, lambda b: usd.export_usd(b.robot, b.assets, b.probed.damping), stage="usd", probes=("damping",)),
     Output("config/connector.yaml", lambda b: export_connector(b.robot, b.probed.damping), probes=("damping",)),
     Output("launch/sim.launch", lambda b: export_launch(b.robot, f"{b.robot.name}.urdf")),
     Output(f"scripts/{NODE_SCRIPT}", lambda b: export_node_script(b.robot), executable=True),

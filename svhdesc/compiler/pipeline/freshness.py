@@ -16,7 +16,19 @@ from pathlib import Path
 from svhdesc.core import manifest as manifest_file
 from svhdesc.core.settings.config import Variant
 
-TOOLS = ("svhdesc", "xacro", "lxml", "numpy", "trimesh", "pycollada", "scipy", "coacd", "manifold3d", "mujoco")
+TOOLS = (
+    "svhdesc",
+    "xacro",
+    "lxml",
+    "numpy",
+    "trimesh",
+    "pycollada",
+    "scipy",
+    "coacd",
+    "manifold3d",
+    "mujoco",
+    "usd-core",
+)
 PACKAGE_DIR = Path(__file__).resolve().parents[2]  # svhdesc/
 
 
