@@ -64,7 +64,7 @@ def scene(variant: str, grasp: bool) -> mujoco.MjModel:
 
     config = yaml.safe_load((REPO / "config" / "svhdesc.yaml").read_text())["grasps"]["power"]
     model = mujoco.MjModel.from_xml_path(str(path))
-    hand = find_hand(model)
+    hand = find_hand(model, svhdesc.get(variant).hand)
     placement, _ = grasps._placement(model, hand, config)
     return grasps._scene(path, config, placement, f"{hand.prefix}_base_link").compile()
 

@@ -20,6 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def main(variant: str = "svh_right") -> int:
     from svhdesc.core.settings.coupling import load_spec
+    from svhdesc.model import get
     from svhdesc.validate.fingertip_force import press
 
     mjcf = REPO / "generated" / variant / f"{variant}.xml"
@@ -29,7 +30,7 @@ def main(variant: str = "svh_right") -> int:
         if channel.tip_force is None:
             print(f"{channel.name:24} {'-':>8} {'-':>8} {'-':>9} {channel.effort:10.3f} {'-':>9}")
             continue
-        result = press(mjcf, channel.name)
+        result = press(mjcf, channel.name, get(variant).hand)
         derived = channel.tip_force * result.lever
         print(
             f"{channel.name:24} {channel.tip_force:8.3f} {result.lever * 1000:8.1f} {derived:9.4f} "
@@ -45,12 +46,13 @@ def top_speed(mjcf: Path, channel: str, duration: float = 3.0) -> float:
     import mujoco
     import numpy as np
 
+    from svhdesc.model import get
     from svhdesc.validate.handsim import find_hand, set_channels
 
     model = mujoco.MjModel.from_xml_path(str(mjcf))
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
-    hand = find_hand(model)
+    hand = find_hand(model, get(mjcf.stem).hand)
     assert hand is not None
     set_channels(model, data, hand, {name: float(model.jnt_range[j][0]) for name, j in hand.channels.items()})
     joint = hand.channels[channel]

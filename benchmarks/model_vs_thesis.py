@@ -43,11 +43,13 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 from bench import contact_scene, peer_spec  # noqa: E402
 from results import write  # noqa: E402
 
+from svhdesc.model import get  # noqa: E402
 from svhdesc.validate import grasps  # noqa: E402
 from svhdesc.validate.handsim import find_hand  # noqa: E402
 
 VARIANT = "ur5_svh_right"
 MJCF = REPO / "generated" / VARIANT / f"{VARIANT}.xml"
+HAND = get(VARIANT).hand
 SETTLE_STEPS = 500
 TIMED_SECONDS = 10.0  # simulated seconds per trial, each from the same settled state
 TRIALS = 3
@@ -121,7 +123,7 @@ def power_grasp() -> tuple[mujoco.MjModel, mujoco.MjData]:
     """The shipped model holding the `power` grasp's cylinder, closed as the grasps check closes it."""
     grasp = dict(yaml.safe_load((REPO / "config" / "svhdesc.yaml").read_text())["grasps"]["power"])
     base = mujoco.MjModel.from_xml_path(str(MJCF))
-    hand = find_hand(base)
+    hand = find_hand(base, HAND)
     placement, _ = grasps._placement(base, hand, grasp)
     sim = grasps._GraspSim.welded(grasps._scene(MJCF, grasp, placement, f"{hand.prefix}_base_link"), hand)
     sim.close(grasps._key_targets(sim.model, hand, "power"))
@@ -134,7 +136,7 @@ def fingers_moving() -> tuple[mujoco.MjModel, mujoco.MjData, object]:
     model = mujoco.MjModel.from_xml_path(str(MJCF))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("test").id)
-    hand = find_hand(model)
+    hand = find_hand(model, HAND)
     channels = np.array(sorted(hand.actuators.values()))
     low, high = model.actuator_ctrlrange[channels].T
     periods = np.linspace(0.7, 1.5, len(channels))

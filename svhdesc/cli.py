@@ -326,7 +326,7 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
         click.echo(f"  {act.name:<36} [{act.lower:+.4f}, {act.upper:+.4f}] rad  {act.effort:g} N m  kp {act.kp:g}")
     rows, cols, matrix = coupling_matrix(robot)
     if rows:
-        prefix = robot.channels[0].joint[: -len(robot.channels[0].name)]
+        prefix = f"{robot.hand.prefix}_" if robot.hand.prefix else ""
         short = [c.removeprefix(prefix) for c in cols]
         # Column keys: initials of the channel name (Index_Finger_Distal -> IFD).
         keys = ["".join(part[0] for part in name.split("_")) for name in short]

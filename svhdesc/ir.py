@@ -175,6 +175,15 @@ class Ground:
 
 
 @dataclass(frozen=True)
+class HandId:
+    """Which hand a robot carries: its names' prefix (``<prefix>_<part>``; None: parts keep their own names) and its
+    side (right, left; None where the config does not say). From the config, resolved once by the pipeline."""
+
+    prefix: str | None = None
+    side: str | None = None
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     links: tuple[Link, ...]
@@ -189,6 +198,7 @@ class Robot:
     excludes: tuple[tuple[str, str], ...] = ()  # link pairs that never collide with each other
     physics: Physics = Physics()
     ground: Ground = Ground()
+    hand: HandId = HandId()
 
     def link(self, name: str) -> Link:
         for link in self.links:

@@ -1,10 +1,11 @@
 """THE contract for a built model: what the runtime (loaders, sim, ros, plan, compare, wireloop, batch) and
-``svhdesc.validate`` may know of one. It is the one module through which they reach the compiler (lazily, inside
-functions; tests/test_layout.py holds every other runtime module to it).
+``svhdesc.validate`` may know of one, read from the built files alone (no compiler import: tests/test_layout.py);
+the compiler's exporters share its names.
 
 - the real drivers' interface names, shared with the exporters (ROS/MoveIt config) and the node;
-- ``Model``, ``get()``, ``variants()``: a built variant's folder and files, its manifest, its meshes as local files,
-  and the ``Configuration`` that built it (the config's typed settings, read-only);
+- ``Model``, ``get()``, ``variants()``: a built variant's folder and files, its manifest, its hand (``HandId``: the
+  prefix and side the build wrote into the manifest), its meshes as local files, and the ``Configuration`` that
+  built it (the config's typed settings, read-only);
 - what a compiled MuJoCo model holds: scalar joints, joint actuators, couplings; and a URDF's ``<mimic>`` couplings:
   one ``Coupling`` type, evaluated with ``svhdesc.polynomial.polyval``;
 - the batch model's promises (solver options, tolerance, hull size), shared with its exporter;
@@ -173,6 +174,28 @@ USD_FILE = "{robot}.usda"  # Isaac Sim / Isaac Lab and Newton: one USD layer wit
 
 
 @dataclass(frozen=True)
+class HandId:
+    """A built model's hand: its names' prefix (``<prefix>_<part>``; None: parts keep their own names) and its side
+    (right, left, or None where the config did not say), as the build resolved them from its config."""
+
+    prefix: str | None
+    side: str | None
+
+    def name(self, part: str) -> str:
+        """A hand part's name in the model: ``right_hand_e1`` of ``e1``."""
+        return f"{self.prefix}_{part}" if self.prefix else part
+
+    def short(self, name: str) -> str:
+        """A hand name without the prefix: ``Pinky`` of ``right_hand_Pinky`` (other names as they are)."""
+        return name.removeprefix(f"{self.prefix}_") if self.prefix else name
+
+    def owns(self, name: str) -> bool:
+        """Whether ``name`` (a joint, a body) is one of the hand's: it carries the prefix (a hand without one owns
+        nothing by name)."""
+        return bool(self.prefix) and name.startswith(f"{self.prefix}_")
+
+
+@dataclass(frozen=True)
 class Model:
     name: str
     directory: Path
@@ -255,6 +278,14 @@ class Model:
         from svhdesc.core import manifest
 
         return manifest.read(self.directory)
+
+    @property
+    def hand(self) -> HandId | None:
+        """The hand the build wrote into the manifest (None: no manifest, or one from before it held the hand)."""
+        entry = (self.manifest() or {}).get("hand")
+        if not isinstance(entry, dict):
+            return None
+        return HandId(entry.get("prefix"), entry.get("side"))
 
     def configuration(self, config: Path | None = None) -> Configuration | None:
         """What the config that built this model says: the variant of this name in ``config``, else in the

@@ -8,6 +8,7 @@ import numpy as np
 
 from svhdesc.compare import experiment
 from svhdesc.compare.engine import Engine, RunConfig, Servo
+from svhdesc.model import HandId
 
 
 def _spec(
@@ -38,12 +39,13 @@ def _spec(
     return spec
 
 
-def finger_links(mjcf_path: Any) -> frozenset[str]:
-    """Bodies moved by a hand joint (driver naming: ``<side>_hand_...``), the links the thesis' sweep changes."""
+def finger_links(mjcf_path: Any, hand_id: HandId | None) -> frozenset[str]:
+    """Bodies moved by a joint of the built model's hand ``hand_id``, the links the thesis' sweep changes."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(mjcf_path))
-    hand = {int(model.jnt_bodyid[j]) for j in range(model.njnt) if "_hand_" in model.joint(j).name}
+    owns = hand_id.owns if hand_id is not None else lambda name: False
+    hand = {int(model.jnt_bodyid[j]) for j in range(model.njnt) if owns(model.joint(j).name)}
     result = set()
     for body in range(1, model.nbody):
         ancestor = body
@@ -54,13 +56,14 @@ def finger_links(mjcf_path: Any) -> frozenset[str]:
     return frozenset(result)
 
 
-def hand_links(mjcf_path: Any) -> frozenset[str]:
-    """Every hand body with mass (driver naming ``<side>_hand_...``): the links the thesis gives 0.01 kg each."""
+def hand_links(mjcf_path: Any, hand_id: HandId | None) -> frozenset[str]:
+    """Every body with mass of the built model's hand ``hand_id``: the links the thesis gives 0.01 kg each."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(mjcf_path))
+    owns = hand_id.owns if hand_id is not None else lambda name: False
     return frozenset(
-        model.body(b).name for b in range(1, model.nbody) if "_hand_" in model.body(b).name and model.body_mass[b] > 0
+        model.body(b).name for b in range(1, model.nbody) if owns(model.body(b).name) and model.body_mass[b] > 0
     )
 
 

@@ -9,13 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from svhdesc.compare.experiment import Conditions, Setup, moving_mean, window_span
+from svhdesc.compare.figures import plot_joints
 from svhdesc.compare.runner import FORCE_WINDOW, STATUS_MISSING, STATUS_OK, TIP_TOLERANCE, Result
-
-
-def _short(joint: str) -> str:
-    for prefix in ("right_hand_", "left_hand_"):
-        joint = joint.removeprefix(prefix)
-    return joint
+from svhdesc.model import HandId, get
 
 
 def _sci(value: float | None) -> str:
@@ -50,8 +46,9 @@ def markdown(setup: Setup, results: list[Result], variant: str, conditions: Cond
     def row(name: str, cells: list[str]) -> None:
         lines.append("| " + " | ".join([name, *cells]) + " |")
 
+    hand = get(variant).hand or HandId(None, None)
     for joint in setup.actuated:
-        row(_short(joint), [_sci(r.mad.get(joint)) if r.status == STATUS_OK else "-" for r in results])
+        row(hand.short(joint), [_sci(r.mad.get(joint)) if r.status == STATUS_OK else "-" for r in results])
     row("**Average**", [f"**{_sci(r.mad_average)}**" if r.status == STATUS_OK else "-" for r in results])
     coupled = [c.joint for c in setup.couplings]
     row(
@@ -212,30 +209,16 @@ def plot(results: list[Result], directory: Path, variant: str) -> list[Path]:
     import matplotlib.pyplot as plt
 
     directory.mkdir(parents=True, exist_ok=True)
+    hand = get(variant).hand
     written = []
     for result in results:
         if not len(result.time):
             continue
         stem = f"{variant}_{result.engine}_{result.label}"
         start = result.time[min(result.record_from, len(result.time) - 1)]
-        hand = [i for i, n in enumerate(result.joints) if "_hand_" in n and n in result.actuated]
-        arm = [i for i, n in enumerate(result.joints) if "_hand_" not in n]
-        groups = [(title, idx) for title, idx in (("arm joints", arm), ("hand channels", hand)) if idx]
-        fig, axes = plt.subplots(len(groups), 1, figsize=(10, 3.5 * len(groups)), sharex=True, squeeze=False)
-        for axis, (title, indices) in zip(axes[:, 0], groups, strict=True):
-            for i in indices:
-                axis.plot(result.time, result.qpos[:, i], linewidth=0.8, label=_short(result.joints[i]))
-            axis.axvspan(start, result.time[-1], color="0.9", zorder=0)
-            axis.set_ylabel("position [rad]")
-            axis.set_title(f"{result.engine}, finger inertia {result.label}: {title} (recorded window shaded)")
-            axis.legend(fontsize=6, ncol=4, loc="best")
-            axis.grid(True, linewidth=0.3)
-        axes[-1, 0].set_xlabel("time [s]")
-        fig.tight_layout()
+        heading = f"{result.engine}, finger inertia {result.label}"
         path = directory / f"{stem}_joints.png"
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        written.append(path)
+        written.append(plot_joints(result, hand, path, heading, "hand channels", result.actuated, (3.5, 100)))
 
         fig, axis = plt.subplots(figsize=(10, 3.5))
         axis.plot(result.time, result.force, color="black", linewidth=0.7, label="normal force")

@@ -239,10 +239,11 @@ def run_grid(
     from svhdesc.model import get
 
     conditions = conditions or experiment.Conditions()
-    mjcf = get(variant).mjcf_path
+    built = get(variant)
+    mjcf = built.mjcf_path
     setup = experiment.define(mjcf, conditions.test_pose)
-    links = finger_links(mjcf)
-    heavy = hand_links(mjcf) if conditions.link_mass is not None else frozenset()
+    links = finger_links(mjcf, built.hand)
+    heavy = hand_links(mjcf, built.hand) if conditions.link_mass is not None else frozenset()
     results = []
     for inertia in inertias:
         gains = servo(mjcf, inertia, links, setup.actuated, conditions.link_mass, heavy)

@@ -98,7 +98,7 @@ class Simulation:
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self._timestep = float(self.model.opt.timestep)  # read at every control update: kept, not re-read
-        self.info: RobotInfo = describe(self.model)
+        self.info: RobotInfo = describe(self.model, built.hand)
         self._act_index = {name: i for i, name in enumerate(self.info.actuators)}
         self._qpos = np.array([self.model.joint(j).qposadr[0] for j in self.info.joints], dtype=int)
         self._qvel = np.array([self.model.joint(j).dofadr[0] for j in self.info.joints], dtype=int)

@@ -18,7 +18,6 @@ import numpy as np
 
 from svhdesc.model import actuated_joints, couplings
 from svhdesc.polynomial import polyval
-from svhdesc.validate.handsim import svh_prefix
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, not_run, skipped, verdict
@@ -33,11 +32,6 @@ RANDOM_POSES = 1000
 DEPTH = 0.5e-3  # m
 GAP = 1e-3  # m between the vendor meshes
 CANDIDATES_PER_PAIR = 200  # touching poses judged per pair: the deepest half, the rest spread over the others
-
-
-def hand_side(pair: ModelPair, prefix: str) -> str:
-    side = pair.configuration.args.get("side") if pair.configuration is not None else None
-    return str(side) if side in ("left", "right") else ("left" if prefix.startswith("left") else "right")
 
 
 def base_qpos(model: Any) -> np.ndarray:
@@ -111,15 +105,18 @@ def check_collision_fidelity(pair: ModelPair, options: Options) -> list[Check]:
     if pair.model is None:
         return [not_run("collision_fidelity", "the MJCF does not compile", bound)]
     model = pair.model
-    prefix = svh_prefix(model)
-    if prefix is None:
+    hand = pair.hand
+    if hand is None or hand.prefix is None or hand.name("Thumb_Flexion") not in actuated_joints(model):
         return [skipped("collision_fidelity", "no SVH hand", bound)]
+    if hand.side is None:
+        return [not_run("collision_fidelity", "the built model names no hand side (hand.side)", bound)]
+    prefix = hand.prefix
     folder = Path(options.vendor_meshes)
     if not (folder / "description" / "urdf" / "svh.urdf.xacro").is_file():
         # --allow-missing-tools lets it through (an installed wheel has no vendor folder beside it); never silent.
         reason = f"skipped: vendor meshes not found ({folder}; --vendor-meshes)"
         return [not_run("collision_fidelity", reason, bound, missing_tool="vendor meshes")]
-    vendor = vendor_links(folder.resolve(), hand_side(pair, prefix))
+    vendor = vendor_links(folder.resolve(), hand.side)
     suffix = {b: model.body(b).name.removeprefix(f"{prefix}_") for b in range(model.nbody)}
     judged = {b for b in range(model.nbody) if model.body(b).name.startswith(f"{prefix}_") and suffix[b] in vendor}
     channels = {n: r for n, r in actuated_joints(model).items() if n.startswith(f"{prefix}_")}

@@ -188,7 +188,7 @@ def check_contact_stability(pair: ModelPair, options: Options) -> list[Check]:
     if options.plots is not None:
         from svhdesc.validate.plots import plot_contact
 
-        run.setup["plots"] = [str(p) for p in plot_contact(run, pair.name, options.plots)]
+        run.setup["plots"] = [str(p) for p in plot_contact(run, pair.name, pair.hand, options.plots)]
     figures = {
         "joints": joints,
         "force_mean_n": force.mean,

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from svhdesc.model import HandId
 from svhdesc.validate.handsim import (
     TIP_OF_CHANNEL,
     Hand,
@@ -64,11 +65,13 @@ def contact_point(model: Any, data: Any, hand: Hand, channel: str) -> tuple[np.n
     return point, motion / np.linalg.norm(motion), float(np.linalg.norm(motion))
 
 
-def press(mjcf: Path, channel: str) -> Press:
+def press(mjcf: Path, channel: str, hand_id: HandId | None) -> Press:
+    """``channel``'s fingertip pressed on a wall in the MJCF ``mjcf``, whose hand is ``hand_id`` (the built
+    model's)."""
     import mujoco
 
     base = mujoco.MjModel.from_xml_path(str(mjcf))
-    hand = find_hand(base)
+    hand = find_hand(base, hand_id)
     if hand is None:
         raise ValueError("no SVH hand (9 channel actuators) in the model")
     data = mujoco.MjData(base)
@@ -124,7 +127,7 @@ def check_fingertip_force(pair: ModelPair, options: Options) -> list[Check]:
     bound = f"within {TOL:.0%} of the driver's tip force"
     if pair.model is None:
         return [not_run("fingertip_force", "the MJCF does not compile", bound)]
-    if find_hand(pair.model) is None:
+    if find_hand(pair.model, pair.hand) is None:
         return [skipped("fingertip_force", "no SVH hand", bound)]
     channels = configured_channels(pair)
     if channels is None:
@@ -133,7 +136,7 @@ def check_fingertip_force(pair: ModelPair, options: Options) -> list[Check]:
     for name, channel in channels.items():
         if channel.tip_force is None or name not in TIP_OF_CHANNEL:
             continue
-        result = press(pair.mjcf_path, name)
+        result = press(pair.mjcf_path, name, pair.hand)
         error = result.force / channel.tip_force - 1.0
         worst = max(worst, abs(error))
         figures[name] = {

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.errors import SvhdescError
-from svhdesc.model import Model
+from svhdesc.model import HandId, Model
 from svhdesc.validate.handsim import FINGERS, Hand, find_hand, set_channels
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
@@ -167,12 +167,13 @@ def _tips_meet(mjcf: Path, hand: Hand, name: str, tips: list[str]) -> tuple[floa
     return float(gap), tuple(sorted(others))
 
 
-def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any]) -> GraspResult:
+def run_grasp(mjcf: Path, name: str, grasp: dict[str, Any], hand_id: HandId | None) -> GraspResult:
+    """The grasp ``name`` of the MJCF ``mjcf``, whose hand is ``hand_id`` (the built model's)."""
     import mujoco
 
     result = GraspResult(name)
     base_model = mujoco.MjModel.from_xml_path(str(mjcf))
-    hand = find_hand(base_model)
+    hand = find_hand(base_model, hand_id)
     if hand is None:
         raise ValueError("no SVH hand (9 channel actuators) in the model")
     if mujoco.mj_name2id(base_model, mujoco.mjtObj.mjOBJ_KEY, name) < 0:
@@ -356,11 +357,13 @@ def _pinch_problems(name: str, tips: list[str], gap: float, others: tuple[str, .
     return problems
 
 
-def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size: tuple[int, int]) -> GraspResult:
+def grasp_picture(
+    mjcf: Path, name: str, grasp: dict[str, Any], hand_id: HandId | None, out: Path, size: tuple[int, int]
+) -> GraspResult:
     """Render the hand holding the object (before gravity turns) to ``out``, looking into the palm."""
     from svhdesc.validate.render import render
 
-    result = run_grasp(mjcf, name, grasp)
+    result = run_grasp(mjcf, name, grasp, hand_id)
     if result.spec is None or result.state is None:
         raise SvhdescError(f"grasp {name}: {'; '.join(result.problems) or 'not simulated'}")
     spec = result.spec
@@ -378,11 +381,12 @@ def grasp_picture(mjcf: Path, name: str, grasp: dict[str, Any], out: Path, size:
 def render_grasp(target: Path, name: str, out: Path, size: tuple[int, int]) -> GraspResult:
     """``svhdesc render --grasp``: the configured grasp ``name`` of a built variant (directory or MJCF)."""
     mjcf = target if target.is_file() else target / f"{target.name}.xml"
-    configuration = Model(mjcf.stem, mjcf.parent).configuration()
+    built = Model(mjcf.stem, mjcf.parent)
+    configuration = built.configuration()
     grasps = dict(configuration.settings.grasps) if configuration is not None else {}
     if name not in grasps:
         raise SvhdescError(f"{mjcf}: no grasp '{name}' configured (grasps: {', '.join(grasps) or 'none'})")
-    return grasp_picture(mjcf, name, grasps[name], out, size)
+    return grasp_picture(mjcf, name, grasps[name], built.hand, out, size)
 
 
 def configured_grasps(pair: ModelPair) -> dict[str, Any] | None:
@@ -395,14 +399,14 @@ def check_grasps(pair: ModelPair, options: Options) -> list[Check]:
     bound = f"slip < {SLIP * 1000:g} mm, {HOLD:g} s per gravity direction"
     if pair.model is None:
         return [not_run("grasps", "the MJCF does not compile", bound)]
-    if find_hand(pair.model) is None:
+    if find_hand(pair.model, pair.hand) is None:
         return [skipped("grasps", "no SVH hand", bound)]
     grasps = configured_grasps(pair)
     if not grasps:
         return [skipped("grasps", "no grasps configured", bound)]
     rows, problems, figures, worst = [], [], {}, 0.0
     for name, grasp in grasps.items():
-        result = run_grasp(pair.mjcf_path, name, grasp)
+        result = run_grasp(pair.mjcf_path, name, grasp, pair.hand)
         problems.extend(result.problems)
         slip = max(result.slip.values()) if result.slip else float("nan")
         worst = max(worst, slip) if np.isfinite(slip) else worst

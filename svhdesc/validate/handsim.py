@@ -1,7 +1,7 @@
 """The hand in a compiled MJCF, as the contact checks drive it: channels, their followers, poses.
 
-Read from the model alone (actuators and joint equalities), so a check drives what the file says,
-not what the build meant.
+Read from the model (actuators and joint equalities), so a check drives what the file says, not what the build
+meant; which names are the hand's comes from the built model's ``HandId`` (its manifest), never from the names.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from svhdesc.ir import Channel
-from svhdesc.model import actuated_joints, couplings
+from svhdesc.model import HandId, actuated_joints, couplings
 from svhdesc.polynomial import polyval
 from svhdesc.validate.pair import ModelPair
 
@@ -28,7 +28,6 @@ TIP_OF_CHANNEL = {
     "Pinky": "q",
 }
 FINGERS = {"thumb": "c", "index": "t", "middle": "s", "ring": "r", "pinky": "q"}
-SVH_TIP_SUFFIXES = ("_c", "_t", "_s", "_r", "_q")  # thumb, index, middle, ring, pinky distal links
 
 
 @dataclass(frozen=True)
@@ -45,35 +44,27 @@ class HandParts:
 
 
 def hand_parts(pair: ModelPair) -> HandParts:
-    """From the configuration that built the model (its coupling spec's channels, hand.fingertips), a spec name
-    being ``<prefix>_<name>`` where the model has that, else the name itself; without a configuration, an SVH
-    recognised by its joint names (a bare --urdf/--mjcf pair)."""
+    """The built model's hand (``pair.hand``): the channels of the configuration that built it (its coupling spec)
+    and its hand.fingertips, each ``<prefix>_<name>`` where the model has that, else the name itself; without a
+    configuration, the SVH's driver channels and fingertip links under the built model's prefix."""
     model = pair.model
     actuated = actuated_joints(model)
     bodies = {model.body(b).name: b for b in range(model.nbody)}
+    hand_id = pair.hand or HandId(None, None)
     configuration = pair.configuration
-    if configuration is None:
-        prefix = svh_prefix(model)
-        channels = {n: r for n, r in actuated.items() if prefix is not None and n.startswith(f"{prefix}_")}
-        tips = [b for name, b in bodies.items() if prefix is not None and name.endswith(SVH_TIP_SUFFIXES)]
-        return HandParts(prefix or "", channels, sorted(tips))
-    hand = configuration.settings.hand
+    if configuration is not None:
+        channel_names, tip_names = list(configuration.channels()), list(configuration.settings.hand.fingertips)
+    elif hand_id.prefix is not None:  # a built SVH without its config at hand: the driver's channels and tips
+        channel_names, tip_names = [*TIP_OF_CHANNEL, "Finger_Spread"], list(FINGERS.values())
+    else:
+        channel_names, tip_names = [], []
 
     def named(name: str, known: Any) -> str:
-        return hand.link(name) if hand.link(name) in known else name
+        return hand_id.name(name) if hand_id.name(name) in known else name
 
-    joints = [named(c, actuated) for c in configuration.channels()]
-    tips = [bodies[named(t, bodies)] for t in hand.fingertips if named(t, bodies) in bodies]
-    return HandParts(hand.prefix or "", {j: actuated[j] for j in joints if j in actuated}, sorted(tips))
-
-
-def svh_prefix(model: Any) -> str | None:
-    """``right_hand`` from the joint ``right_hand_Thumb_Flexion`` (None without an SVH)."""
-    for j in range(model.njnt):
-        name = model.joint(j).name
-        if name.endswith("_Thumb_Flexion"):
-            return name.removesuffix("_Thumb_Flexion")
-    return None
+    joints = [named(c, actuated) for c in channel_names]
+    tips = [bodies[named(t, bodies)] for t in tip_names if named(t, bodies) in bodies]
+    return HandParts(hand_id.prefix or "", {j: actuated[j] for j in joints if j in actuated}, sorted(tips))
 
 
 @dataclass(frozen=True)
@@ -87,18 +78,21 @@ class Hand:
         return int(model.body(f"{self.prefix}_{suffix}").id)
 
 
-def find_hand(model: Any) -> Hand | None:
-    """The hand's channels (actuated joints named <prefix>_<channel>) and their coupled joints."""
-    channels, actuators, prefix = {}, {}, ""
+def find_hand(model: Any, hand_id: HandId | None) -> Hand | None:
+    """The SVH of the built model's ``hand_id`` (its manifest's): the channels (actuated joints named
+    ``<prefix>_<channel>``) and their coupled joints; None unless all nine are there."""
+    if hand_id is None or hand_id.prefix is None:
+        return None
+    channels, actuators = {}, {}
+    wanted = {hand_id.name(channel): channel for channel in (*TIP_OF_CHANNEL, "Finger_Spread")}
     for a in range(model.nu):
         joint = int(model.actuator_trnid[a, 0])
-        name = model.joint(joint).name
-        for channel in (*TIP_OF_CHANNEL, "Finger_Spread"):
-            if name.endswith(f"_{channel}"):
-                channels[channel], actuators[channel] = joint, a
-                prefix = name[: -len(channel) - 1]
+        channel = wanted.get(model.joint(joint).name)
+        if channel is not None:
+            channels[channel], actuators[channel] = joint, a
     if len(channels) < 9:
         return None
+    prefix = hand_id.prefix
     followers: dict[int, list[tuple[int, tuple[float, ...]]]] = {j: [] for j in channels.values()}
     for eq in couplings(model):
         leader = int(model.joint(eq.leader).id)

@@ -37,7 +37,7 @@ def check_mass_budget(pair: ModelPair, options: Options) -> list[Check]:
             )
         ]
     settings = configuration.settings.mass
-    prefix = configuration.settings.hand.prefix
+    prefix = pair.hand.prefix if pair.hand is not None else None  # the built model's, as the build expanded it
     problems, parts, figures = [], [], {}
     for budget in settings.budgets:
         pattern = str(budget["links"]).format(hand=prefix or "")

@@ -11,7 +11,7 @@ import numpy as np
 from lxml import etree
 
 from svhdesc.errors import SvhdescError
-from svhdesc.model import Configuration, Coupling, Model, mimic_coupling
+from svhdesc.model import Configuration, Coupling, HandId, Model, mimic_coupling
 
 
 def _floats(text: str | None, default: tuple[float, ...]) -> np.ndarray:
@@ -147,6 +147,7 @@ class ModelPair:
     model: Any = None  # mujoco.MjModel
     mjcf_error: str | None = None
     configuration: Configuration | None = None  # what the config that built it says, when known
+    hand: HandId | None = None  # the hand the build wrote into its manifest (None: no manifest beside the MJCF)
 
 
 def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_path: Path | None = None) -> ModelPair:
@@ -167,7 +168,9 @@ def load_pair(urdf_path: Path, mjcf_path: Path, name: str | None = None, config_
     model_name = _mjcf_model_name(mjcf_path) or pair.name
     if name is None:
         pair.name = model_name
-    pair.configuration = Model(model_name, mjcf_path.parent).configuration(config_path)
+    built = Model(model_name, mjcf_path.parent)
+    pair.configuration = built.configuration(config_path)
+    pair.hand = built.hand
     return pair
 
 

@@ -7,8 +7,11 @@ from typing import Protocol
 
 import numpy as np
 
+from svhdesc.compare.figures import Traces, plot_joints
+from svhdesc.model import HandId
 
-class ContactRun(Protocol):
+
+class ContactRun(Traces, Protocol):
     """What the plots read of a contact experiment (svhdesc.validate.contact_stability.Experiment); a protocol, so
     that the check imports the plots and not the other way round."""
 
@@ -20,37 +23,16 @@ class ContactRun(Protocol):
     record_from: int
 
 
-def plot_contact(run: ContactRun, name: str, directory: Path) -> list[Path]:
+def plot_contact(run: ContactRun, name: str, hand: HandId | None, directory: Path) -> list[Path]:
+    """The joints (``hand``: the built model's, whose joints form the hand panel) and the contact force."""
     import matplotlib
 
     matplotlib.use("Agg")  # headless: no display needed
     import matplotlib.pyplot as plt
 
     directory.mkdir(parents=True, exist_ok=True)
-    start = run.time[run.record_from] if run.record_from < len(run.time) else run.time[-1]
-    hand = [i for i, n in enumerate(run.joints) if "_hand_" in n]
-    arm = [i for i in range(len(run.joints)) if i not in hand]
-    groups = [(title, idx) for title, idx in (("arm joints", arm), ("hand joints", hand)) if idx]
-
-    joints_png = directory / f"{name}_contact_joints.png"
-    fig, axes = plt.subplots(len(groups), 1, figsize=(10, 4 * len(groups)), sharex=True, squeeze=False)
-    for axis, (title, indices) in zip(axes[:, 0], groups, strict=True):
-        for i in indices:
-            axis.plot(
-                run.time,
-                run.qpos[:, i],
-                linewidth=0.8,
-                label=run.joints[i].removeprefix("right_hand_").removeprefix("left_hand_"),
-            )
-        axis.axvspan(start, run.time[-1], color="0.9", zorder=0)
-        axis.set_ylabel("position [rad]")
-        axis.set_title(f"{name}: {title} (recorded window shaded)")
-        axis.legend(fontsize=6, ncol=4, loc="best")
-        axis.grid(True, linewidth=0.3)
-    axes[-1, 0].set_xlabel("time [s]")
-    fig.tight_layout()
-    fig.savefig(joints_png, dpi=110)
-    plt.close(fig)
+    start = run.time[min(run.record_from, len(run.time) - 1)]
+    joints_png = plot_joints(run, hand, directory / f"{name}_contact_joints.png", name)
 
     force_png = directory / f"{name}_contact_force.png"
     fig, axis = plt.subplots(figsize=(10, 4))

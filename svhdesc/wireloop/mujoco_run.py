@@ -1,15 +1,17 @@
 """The learned plan executed by the UR5 + SVH in MuJoCo: the 3-D step the paper's conclusion calls for.
 
-The generated ``ur5_svh_right`` scene is loaded through the public API and extended with ``mujoco.MjSpec``:
+The generated ``ur5_svh_right`` scene (or another arm with an SVH: ``SceneConfig.variant``) is loaded through the
+public API and extended with ``mujoco.MjSpec``:
 
 - the wire: one capsule per straight run of the map's path, in a horizontal plane below the hand;
-- the loop: a ring of capsules in a vertical plane, on a rod below the palm (body ``right_hand_e1``), with a
+- the loop: a ring of capsules in a vertical plane, on a rod below the palm (body ``<prefix>_e1``, the prefix the
+  built model names), with a
   site at its centre. The ring's horizontal diameter is the 2-D loop's segment; turning the loop is a yaw
   of the hand about the vertical through the ring's centre.
 
 Each planned grid move becomes an end-effector target (ring centre position and yaw), interpolated over
 ``move_s``; damped-least-squares inverse kinematics with ``mj_jacSite`` on the 6 arm joints gives the joint
-targets, and the model's position servos follow (the hand's 9 channels hold the ``home`` keyframe). The
+targets, and the model's position servos follow (the hand's channels hold the ``home`` keyframe). The
 bodies get gravity compensation (``gravcomp``), as the UR5's own controller gives it.
 
 Ring and wire geoms collide only with each other and the hand (contype/conaffinity bit 2); every control
@@ -35,10 +37,9 @@ from svhdesc.wireloop.env import CCW, CW, Environment
 from svhdesc.wireloop.wiremap import WireMap, load_map
 
 VARIANT = "ur5_svh_right"
-PALM = "right_hand_e1"
+PALM = "e1"  # the hand's palm link, under the built model's prefix
 SITE = "wireloop_centre"
 WIRE_BITS = 2  # contype/conaffinity bit shared by wire and ring only
-ARM_ACTUATORS = slice(9, 15)  # 9 hand channels, then the 6 arm joints
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class SceneConfig:
     control_dt: float = 0.005  # IK and servo targets updated at 200 Hz
     settle_s: float = 0.3
     near: float = 0.05  # ring-wire distances are measured (mj_geomDistance) up to this far
+    variant: str = VARIANT  # a shipped variant or a built variant's folder: an arm with an SVH
 
 
 @dataclass
@@ -90,14 +92,14 @@ def _runs(wire_map: WireMap) -> list[tuple[tuple[int, int], tuple[int, int]]]:
     return runs
 
 
-def _palm_at_home(spec: Any) -> tuple[np.ndarray, np.ndarray]:
+def _palm_at_home(spec: Any, palm: str) -> tuple[np.ndarray, np.ndarray]:
     """The palm body's world position and rotation in the ``home`` keyframe."""
     mujoco = _mujoco()
     base = spec.compile()
     data = mujoco.MjData(base)
     mujoco.mj_resetDataKeyframe(base, data, base.key("home").id)
     mujoco.mj_forward(base, data)
-    return data.body(PALM).xpos.copy(), data.body(PALM).xmat.reshape(3, 3).copy()
+    return data.body(palm).xpos.copy(), data.body(palm).xmat.reshape(3, 3).copy()
 
 
 def _add_loop(palm: Any, palm_mat: np.ndarray, cfg: SceneConfig) -> int:
@@ -176,9 +178,14 @@ class Scene:
         mujoco = _mujoco()
         self.map = wire_map
         self.config = cfg = config or SceneConfig()
-        spec = mujoco.MjSpec.from_file(str(get(VARIANT).scene_path))
+        built = get(cfg.variant)
+        hand = built.hand
+        if hand is None or hand.prefix is None:
+            raise SvhdescError(f"{cfg.variant}: the built model names no hand prefix (its manifest's hand)")
+        palm = hand.name(PALM)
+        spec = mujoco.MjSpec.from_file(str(built.scene_path))
         # Where the palm is in the home pose decides where the wire goes (below it, centred).
-        palm_pos, palm_mat = _palm_at_home(spec)
+        palm_pos, palm_mat = _palm_at_home(spec, palm)
         self.height = float(palm_pos[2] - cfg.drop)
         rows = [r for r, _ in wire_map.path]
         cols = [c for _, c in wire_map.path]
@@ -186,7 +193,7 @@ class Scene:
         self.centre_xy = (float(palm_pos[0]), float(palm_pos[1]))
         for body in spec.bodies:
             body.gravcomp = 1.0
-        segments = _add_loop(spec.body(PALM), palm_mat, cfg)
+        segments = _add_loop(spec.body(palm), palm_mat, cfg)
         runs = _runs(wire_map)
         for i, (first, last) in enumerate(runs):
             spec.worldbody.add_geom(
@@ -209,8 +216,11 @@ class Scene:
             (self.model.geom(f"wireloop_wire_{i}").id, self.world(*a), self.world(*b)) for i, (a, b) in enumerate(runs)
         ]
         self.ring_ids = sorted(self.ring)
-        self.arm_dofs = np.array([self.model.jnt_dofadr[self.model.actuator_trnid[a, 0]] for a in range(9, 15)])
-        self.arm_qpos = np.array([self.model.jnt_qposadr[self.model.actuator_trnid[a, 0]] for a in range(9, 15)])
+        # The arm's servos: every joint actuator that is not the hand's.
+        joint_of = [int(self.model.actuator_trnid[a, 0]) for a in range(self.model.nu)]
+        self.arm_actuators = np.array([a for a, j in enumerate(joint_of) if not hand.owns(self.model.joint(j).name)])
+        self.arm_dofs = np.array([self.model.jnt_dofadr[joint_of[a]] for a in self.arm_actuators])
+        self.arm_qpos = np.array([self.model.jnt_qposadr[joint_of[a]] for a in self.arm_actuators])
         self.home = self.model.key("home").id
 
     def world(self, row: float, col: float) -> np.ndarray:
@@ -346,13 +356,13 @@ class _Follower:
         if solve_ik(scene, ik, scene.world(first[0], first[1]), target_rotation(first[2]), iterations=200) > 1e-6:
             raise SvhdescError("the wire's start is out of the arm's reach")
         data.qpos[:] = ik.qpos
-        data.ctrl[ARM_ACTUATORS] = ik.qpos[scene.arm_qpos]
+        data.ctrl[scene.arm_actuators] = ik.qpos[scene.arm_qpos]
         mujoco.mj_forward(model, data)
         substeps = max(1, round(scene.config.control_dt / model.opt.timestep))
         # A position servo with damping lags a moving target by about tau = (kv + joint damping) / kp;
         # leading the command by tau times the reference velocity cancels most of that lag.
-        kp = model.actuator_gainprm[ARM_ACTUATORS, 0]
-        tau = (-model.actuator_biasprm[ARM_ACTUATORS, 2] + model.dof_damping[scene.arm_dofs]) / kp
+        kp = model.actuator_gainprm[scene.arm_actuators, 0]
+        tau = (-model.actuator_biasprm[scene.arm_actuators, 2] + model.dof_damping[scene.arm_dofs]) / kp
         return cls(scene, data, ik, run, tau, ik.qpos[scene.arm_qpos].copy(), substeps)
 
     def advance(self, position: np.ndarray, rotation: np.ndarray) -> None:
@@ -360,7 +370,7 @@ class _Follower:
         scene, data, run = self.scene, self.data, self.run
         solve_ik(scene, self.ik, position, rotation, iterations=10)
         reference = self.ik.qpos[scene.arm_qpos].copy()
-        data.ctrl[ARM_ACTUATORS] = reference + self.tau * (reference - self.previous) / scene.config.control_dt
+        data.ctrl[scene.arm_actuators] = reference + self.tau * (reference - self.previous) / scene.config.control_dt
         self.previous = reference
         run.other_wire_contacts += int(self._step())
         run.min_clearance_m = min(run.min_clearance_m, clearance(scene, data))
@@ -390,9 +400,12 @@ class _Follower:
         return other
 
 
-def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] = (800, 600)) -> str:
+def render(
+    wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] = (800, 600), variant: str = VARIANT
+) -> str:
     """Draw the robot in its final pose over the wire, with the ring centre's path, in a child process."""
     request = {
+        "variant": variant,
         "map": wire_map_file,
         "qpos": run.final_qpos,
         "centres": run.centres,
@@ -406,7 +419,8 @@ def render(wire_map_file: str, run: MujocoRun, out: Path, size: tuple[int, int] 
 def _render_child() -> int:
     mujoco = _mujoco()
     request = json.loads(sys.stdin.read())
-    scene = Scene(load_map(request["map"]), markers=request["centres"], picture=True)
+    config = SceneConfig(variant=request["variant"])
+    scene = Scene(load_map(request["map"]), config, markers=request["centres"], picture=True)
     model = scene.model
     data = mujoco.MjData(model)
     data.qpos[:] = request["qpos"]

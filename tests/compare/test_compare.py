@@ -169,7 +169,7 @@ def test_adapter_interface_at_home() -> None:
 
     mjcf = svhdesc.get(VARIANT).mjcf_path
     setup = experiment.define(mjcf)
-    links = finger_links(mjcf)
+    links = finger_links(mjcf, svhdesc.get(VARIANT).hand)
     assert "right_hand_t" in links and "wrist_3_link" not in links
     engine = MujocoEngine()
     engine.load(RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated)))
@@ -247,7 +247,7 @@ def test_ode_world_matches_the_model_at_home() -> None:
 
     mjcf = svhdesc.get(VARIANT).mjcf_path
     setup = experiment.define(mjcf)
-    links = finger_links(mjcf)
+    links = finger_links(mjcf, svhdesc.get(VARIANT).hand)
     config = RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated))
     ode, mujoco = OdeEngine(), MujocoEngine()
     ode.load(config)
@@ -320,7 +320,7 @@ def test_ode_position_mode_sets_saturated_commands() -> None:
 
     mjcf = svhdesc.get(VARIANT).mjcf_path
     setup = experiment.define(mjcf)
-    links = finger_links(mjcf)
+    links = finger_links(mjcf, svhdesc.get(VARIANT).hand)
     engine = OdeEngine()
     engine.load(RunConfig(VARIANT, setup, 0.01, links, servo(mjcf, 0.01, links, setup.actuated)))
     try:
@@ -387,7 +387,7 @@ def test_thesis_link_mass_reaches_every_engine() -> None:
 
     mjcf = svhdesc.get(VARIANT).mjcf_path
     setup = experiment.define(mjcf)
-    links, heavy = finger_links(mjcf), hand_links(mjcf)
+    links, heavy = finger_links(mjcf, svhdesc.get(VARIANT).hand), hand_links(mjcf, svhdesc.get(VARIANT).hand)
     assert "right_hand_t" in heavy and "right_hand_e1" in heavy and "wrist_3_link" not in heavy
     config = RunConfig(
         VARIANT, setup, None, links, servo(mjcf, None, links, setup.actuated, 0.01, heavy), 0.001, 0.01, heavy
@@ -418,7 +418,7 @@ def test_servo_gains_are_the_generated_connector_gains() -> None:
 
     model = svhdesc.get(VARIANT)
     setup = experiment.define(model.mjcf_path)
-    gains = servo(model.mjcf_path, None, finger_links(model.mjcf_path), setup.actuated)
+    gains = servo(model.mjcf_path, None, finger_links(model.mjcf_path, model.hand), setup.actuated)
     connector = yaml.safe_load((model.directory / "config" / "connector.yaml").read_text())["joints"]
     by_name = {joint["name"]: joint for joint in connector}
     assert [by_name[n]["p_gain"] for n in setup.actuated] == pytest.approx(gains.kp, rel=1e-12)

@@ -40,9 +40,8 @@ REQUEST_ADAPTERS = tuple(
 
 
 def hand_prefix(robot: Robot) -> str:
-    """``right_hand`` of ``right_hand_Thumb_Flexion``; ``hand`` for channels named like their joints (no prefix)."""
-    channel = robot.channels[0]
-    return channel.joint[: -len(channel.name) - 1] if channel.joint != channel.name else "hand"
+    """The hand's prefix (``right_hand``), which names its controller; ``hand`` for a hand without one."""
+    return robot.hand.prefix or "hand"
 
 
 def hand_joints(robot: Robot) -> list[str]:

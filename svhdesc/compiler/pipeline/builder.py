@@ -48,8 +48,10 @@ def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path,
         for path in sorted(directory.rglob("*"))
         if path.is_file()
     }
+    hand = compiled.robot.hand
     manifest = {
         "variant": plan.variant.name,
+        "hand": {"prefix": hand.prefix, "side": hand.side},  # the contract's Model.hand
         "inputs": inputs,
         "outputs": produced,
         "decompositions": compiled.assets.decompositions,

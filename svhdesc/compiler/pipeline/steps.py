@@ -43,7 +43,7 @@ from svhdesc.core.source.quirks import apply_joint_quirks
 from svhdesc.core.source.urdf import SourceMimic, read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
-from svhdesc.ir import Robot
+from svhdesc.ir import HandId, Robot
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class Plan:
     """A variant read and planned, once: the source robot and what the processors need beside their settings."""
 
     variant: Variant
-    robot: Robot  # as read: kinematics and geometry, nothing injected yet
+    robot: Robot  # as read: kinematics and geometry, nothing injected yet but its hand's prefix and side
     packages: dict[str, Path]  # the packages it was read with
     inputs: tuple[Path, ...]  # every file the build reads, for the manifest
     coupling: Coupled
@@ -133,18 +133,29 @@ class Source:
     mimics: list[SourceMimic]  # the source's <mimic> tags: the coupling spec when the config gives none
 
 
+def hand_of(variant: Variant) -> HandId:
+    """The variant's hand: prefix and side as its settings resolve them (a mount's included). A ``side`` xacro
+    argument that says otherwise is refused: the model would be the other hand."""
+    hand = variant.settings.hand
+    argued = variant.args.get("side")
+    if hand.side is not None and argued in ("right", "left") and argued != hand.side:
+        raise SvhdescError(f"{hand.at('side')}: hand.side is {hand.side}, but the xacro argument side is {argued}")
+    return HandId(hand.prefix, hand.side)
+
+
 def read_source(variant: Variant, packages: dict[str, Path], timings: Timings) -> Source:
-    """The variant's robot as read, its ``joints:`` quirks applied; with a ``mount``, the arm of its xacro with this
-    project's hand grafted on."""
+    """The variant's robot as read, its ``joints:`` quirks applied, carrying its hand's prefix and side; with a
+    ``mount``, the arm of its xacro with this project's hand grafted on."""
+    hand_id = hand_of(variant)
     arm = _read(variant.xacro, variant.args, packages, timings, variant.settings.joints)
     mount = variant.settings.mount
     if mount is None:
-        return replace(arm, robot=replace(arm.robot, name=variant.name))
-    args = mount_source.hand_args(mount, str(variant.settings.hand.prefix))
+        return replace(arm, robot=replace(arm.robot, name=variant.name, hand=hand_id))
+    args = mount_source.hand_args(mount, str(hand_id.prefix))
     hand = _read(mount_source.hand_xacro(), args, mount_source.hand_packages(packages), timings)
-    robot = mount_source.graft(arm.robot, hand.robot, mount)
+    robot = replace(mount_source.graft(arm.robot, hand.robot, mount), name=variant.name, hand=hand_id)
     # the arm's own <mimic> tags only: the hand's couplings come from its spec
-    return Source(replace(robot, name=variant.name), list(dict.fromkeys([*arm.inputs, *hand.inputs])), arm.mimics)
+    return Source(robot, list(dict.fromkeys([*arm.inputs, *hand.inputs])), arm.mimics)
 
 
 def _read(
@@ -165,15 +176,15 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     if variant.settings.mount is not None:
         packages = mount_source.hand_packages(packages)
     source = read_source(variant, packages, timings)
-    settings = variant.settings
+    settings, hand = variant.settings, source.robot.hand
     spec_path = variant.coupling_path  # None: a robot without couplings
     with timings.stage("coupling"):
         if spec_path is not None:
-            spec, prefix = load_spec(spec_path), settings.hand.prefix
+            spec, prefix = load_spec(spec_path), hand.prefix
         else:  # the source's own <mimic> tags, with the source's full joint names
             spec, prefix = spec_from_mimics(source.robot, source.mimics, variant.xacro), None
     coupled = Coupled(spec, prefix, settings.coupled_limits == "widen", settings.hand.at("prefix"))
-    rules = collision_rules(source.robot, settings.collision, settings.hand.prefix)
+    rules = collision_rules(source.robot, settings.collision, hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
     inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))
     return Plan(variant, source.robot, packages, inputs, coupled, Meshes(rules, hulls), jobs)

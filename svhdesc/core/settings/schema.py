@@ -219,10 +219,13 @@ class Hand(Located):
     """The hand's drives and parts; every key is optional (a robot without a hand leaves the section out).
 
     ``prefix`` is a convenience: with it, fingertips, the force sensor and the coupling spec's joints are
-    ``<prefix>_<name>``; without it, they are the robot's own names.
+    ``<prefix>_<name>``; without it, they are the robot's own names. ``side`` (right or left; a mount's side when
+    the variant has a mount) is which hand it is. Both travel with the built model (the IR's ``hand``, the
+    manifest's ``hand``), so that nothing downstream guesses them from names.
     """
 
     prefix: str | None = _field(None, optional(text))
+    side: str | None = _field(None, optional(choice("right", "left")))
     fingertips: list[str] = _field([], names)
     force_sensor: str | None = _field(None, optional(text))
     joint_damping: float = _field(0.0, number(0.0))  # channel joints (the drives)
@@ -551,8 +554,9 @@ def _section(cls: type, value: Any, at: str) -> tuple[Any, Node]:
 def normalise(settings: dict[str, Any], at: str) -> Settings:
     """Check every value of one variant's merged settings; fill the defaults."""
     typed = _section(Settings, settings, f"{at}: ")[0]
-    if typed.mount is not None:
-        typed = replace(typed, hand=replace(typed.hand, prefix=mounted_prefix(typed.mount, typed.hand)))
+    if typed.mount is not None:  # the mount says which hand it mounts (a base config's hand.side is its own hands')
+        hand = replace(typed.hand, prefix=mounted_prefix(typed.mount, typed.hand), side=typed.mount.side)
+        typed = replace(typed, hand=hand)
     if not typed.hand.prefix:
         _check_no_hand_patterns(typed)
     return typed
