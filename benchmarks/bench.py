@@ -127,7 +127,7 @@ def peer_spec(directory: Path) -> mujoco.MjSpec:
 NOTES = """\
 `--check` rebuilds in a temporary folder and takes no hulls from the folder it checks: with an empty hull cache
 (the first (c) row) every collision mesh is decomposed again; with the cache filled (the second) it is what a
-developer's machine sees ([reliability.md](/docs/reliability.md#build---check-trusts-nothing-it-checks)).
+developer's machine sees ([build.md](/docs/build.md#build---check-trusts-nothing-it-checks)).
 
 Two notes on (d):
 

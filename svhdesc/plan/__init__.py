@@ -9,7 +9,7 @@ plan.success, plan.planning_time, plan.joint_names, plan.times, plan.positions
 
 Reads only the generated MoveIt config (SRDF, joint_limits.yaml, kinematics.yaml, moveit_controllers.yaml),
 the URDF (position limits, IK) and the simulation's scene.xml (the robot's MJCF with the floor and pedestal:
-collision checking with MuJoCo, docs/planning.md).
+collision checking with MuJoCo, docs/plan.md).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ MuJoCo for the ROS 2 MJCF, and Python's compiler for the launch files.
 ros2_control itself (hardware_interface's component parser, the controller manager), MoveIt 2, Gazebo and
 ``launch``/``launch_ros`` are not on PyPI and do not run here: ``component_errors`` restates the component parser's
 checks (ros2_control Jazzy, hardware_interface/src/component_parser.cpp, parse_control_resources_from_urdf), and
-the launch files are evaluated against recording stand-ins of the launch API (see docs/ros2-files.md).
+the launch files are evaluated against recording stand-ins of the launch API (see docs/ros2.md).
 Each checker is shown to fail on a seeded fault in the same test.
 """
 
