@@ -164,7 +164,7 @@ def main() -> None:
     "--trust-cache",
     is_flag=True,
     help="With --check: take hulls from the hull cache and the other shipped variants (checked against their meshes, "
-    "not recomputed: docs/reliability.md), in seconds instead of minutes.",
+    "not recomputed: docs/build.md), in seconds instead of minutes.",
 )
 @click.option("--jobs", "-j", type=int, default=0, help="Parallel decompositions; 0 (the default): one per CPU.")
 @click.option("--rebuild-collisions", is_flag=True, help="Decompose again, ignoring every cache.")
@@ -209,7 +209,7 @@ def build_command(
     from svhdesc.compiler.probes.cache import recomputing
 
     # The progress bar shows only on a terminal (HullSource checks); CI logs stay quiet. --check trusts no hull it
-    # did not compute unless told to: a cache entry can be forged within the fit check's tolerance (reliability.md).
+    # did not compute unless told to: a cache entry can be forged within the fit check's tolerance (docs/build.md).
     recompute = rebuild_collisions or (check and not trust_cache)
     hulls = HullSource(HullCache(default_cache_dir()), jobs=jobs, force=recompute, progress=True)
     timings = Timings()

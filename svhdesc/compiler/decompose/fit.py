@@ -8,7 +8,7 @@ convex hull; a box over a mesh's bounds, or its oriented bounding box, reaches 1
 
 What this cannot tell apart is a decomposition of a *nearly identical* mesh: the SVH's fingertips ``s`` and ``t``
 differ by 0.5 mm, less than CoACD's own distance from either mesh, so each one's hulls pass as the other's. That
-is the hull cache's trust boundary (docs/reliability.md): ``build --check`` decomposes afresh unless told to trust
+is the hull cache's trust boundary (docs/build.md): ``build --check`` decomposes afresh unless told to trust
 the cache.
 """
 

@@ -4,7 +4,7 @@ given the 8 hulls of ``n`` (instead of its 16), and one box over ``z``'s bounds,
 
 The box is refused. The other two are decompositions of meshes that differ from ``t`` and ``o`` by less than CoACD's
 own distance from either, so no check of the hulls against the mesh can refuse them: they are the cache's trust
-boundary (docs/reliability.md), which ``build --check`` does not cross by default
+boundary (docs/build.md), which ``build --check`` does not cross by default
 (tests/compiler/pipeline/test_hull_trust.py).
 """
 
@@ -71,7 +71,7 @@ def test_another_mesh_s_hulls_pass_only_for_a_nearly_identical_mesh() -> None:
         for donor, (_, hulls) in decompositions.items()
         if donor != target and not misfit_hulls(mesh, hulls)
     ]
-    assert ("t", "s") in passing and ("o", "n") in passing  # the trust boundary, as docs/reliability.md says
+    assert ("t", "s") in passing and ("o", "n") in passing  # the trust boundary, as docs/build.md says
     far = {
         pair: d
         for pair in passing

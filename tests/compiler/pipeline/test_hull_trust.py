@@ -1,4 +1,4 @@
-"""Which hulls a build reuses, and what ``build --check`` trusts (docs/reliability.md): the mini robot with its
+"""Which hulls a build reuses, and what ``build --check`` trusts (docs/build.md): the mini robot with its
 finger's collision mesh decomposed, so that every decomposition takes a fraction of a second.
 
 - A cache entry forged within the fit check's tolerance (the same hull shrunk by 2 %, digests rewritten) is served
