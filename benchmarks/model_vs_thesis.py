@@ -241,7 +241,7 @@ def closest_approach(model: mujoco.MjModel, pairs: list[tuple[str, str]], sample
     poses: every hand joint anywhere in its range, at one of its limits 30 % of the time (coupled joints drawn
     freely too, so the poses are a superset of the reachable ones)."""
     data, rng = mujoco.MjData(model), np.random.default_rng(0)
-    hand = [j for j in range(model.njnt) if model.joint(j).name.startswith("right_hand_")]
+    hand = [j for j in range(model.njnt) if HAND.owns(model.joint(j).name)]
     collides = (model.geom_contype | model.geom_conaffinity) > 0
     geoms = {
         name: [g for g in range(model.ngeom) if collides[g] and model.geom_bodyid[g] == model.body(name).id]
