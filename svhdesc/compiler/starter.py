@@ -15,14 +15,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import trimesh
 import yaml
 from lxml import etree
 
 from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.drives import STIFF_AT, Drive, cap_stiffness, size_drive
-from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, mass_matrix
+from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, link_frames, mass_matrix
 from svhdesc.compiler.stages.inertials import cylinder_inertial, shape_of
+from svhdesc.core import exact
 from svhdesc.core.frames import pose_matrix
 from svhdesc.core.inertia import inertial_problem
 from svhdesc.core.settings.config import PYTHON, package_name
@@ -195,6 +197,7 @@ def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, A
         "hull: one convex hull per mesh (fast); decompose: a CoACD convex decomposition (slow, cached)",
         {"collision": {"mode": "hull"}},
     )
+    lines += _floor_block(robot, home)
     lines += _block(
         f"a pose clear of every joint's stops: 0 where it lies {HOME_CLEARANCE:.0%} of the range inside them, else\n"
         "the nearest such point, or the middle of a range without 0",
@@ -208,6 +211,33 @@ def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, A
     if spec is not None:
         coupling = _coupling_text(spec, source)
     return Starter("\n".join(lines), coupling)
+
+
+FLOOR_GAP = 0.01  # m: how far below the robot at home the floor lies, where the robot reaches below its root
+
+
+def _floor_block(robot: Robot, home: dict[str, float]) -> list[str]:
+    """``scene.floor_z`` just below the robot at home where it reaches below its root (a quadruped or a humanoid
+    fixed at its trunk: a floor at 0 would cut through its legs, and the simulation pushes them out of it); nothing
+    where the robot stands on z = 0 (an arm on its base, within FLOOR_GAP), whose floor stays there."""
+    frames = link_frames(robot, home)
+    lowest = 0.0
+    for link in robot.links:
+        for geometry in link.collisions or link.visuals:
+            try:
+                shape = _source_shape(geometry)
+            except (SvhdescError, MeshError, OSError, ValueError):
+                continue
+            corners = np.asarray(shape.bounds, dtype=float)
+            points = np.array([[x, y, z, 1.0] for x in corners[:, 0] for y in corners[:, 1] for z in corners[:, 2]])
+            lowest = min(lowest, float(exact.matmul(points, frames[link.name].T)[:, 2].min()))
+    if lowest >= -FLOOR_GAP:  # an arm's base mesh a hair below z = 0 keeps its floor there
+        return []
+    floor = float(f"{lowest - FLOOR_GAP:.3g}")
+    return _block(
+        f"the floor of the scene {FLOOR_GAP:g} m below the robot at home: it reaches {-lowest:.3g} m below its root",
+        {"scene": {"floor_z": floor}},
+    )
 
 
 def _masses_for_loads(robot: Robot) -> dict[str, Inertial]:

@@ -105,8 +105,9 @@ def _advice(found: Servos) -> str:
     )
 
 
-def diverges(model: Any) -> tuple[float, str] | None:
-    """(the time, the joint) where MuJoCo first finds the model diverging in the trial run, or None."""
+def diverges(model: Any) -> tuple[float, int] | None:
+    """(the time, the dof) where MuJoCo first finds the model diverging in the trial run, or None. (MuJoCo resets the
+    state when it warns, so the time is read before each step.)"""
     import mujoco
 
     data, low, high = random_target_start(model)
@@ -115,14 +116,34 @@ def diverges(model: Any) -> tuple[float, str] | None:
     for step in range(settle + round(DRIVE / model.opt.timestep)):
         if step >= settle and (step - settle) % period == 0:
             data.ctrl[:] = rng.uniform(low, high)
+        when, speeds = float(data.time), np.abs(data.qvel)
         mujoco.mj_step(model, data)
         bad = data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)]
         if bad.number or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
-            dof = (
-                int(bad.lastinfo) if bad.number and 0 <= bad.lastinfo < model.nv else int(np.argmax(np.abs(data.qvel)))
-            )
-            return float(data.time), model.joint(int(model.dof_jntid[dof])).name
+            dof = int(bad.lastinfo) if bad.number and 0 <= bad.lastinfo < model.nv else int(np.argmax(speeds))
+            return when, dof
     return None
+
+
+def _strongest(model: Any, dof: int) -> str:
+    """What drives ``dof``: its servo's force limit over the inertia behind it at home, as an acceleration."""
+    import mujoco
+
+    data, _, _ = random_target_start(model)
+    mujoco.mj_forward(model, data)
+    inertia = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, inertia)
+    joint = int(model.dof_jntid[dof])
+    driving = [a for a in range(model.nu) if int(model.actuator_trnid[a, 0]) == joint]
+    if not driving:
+        return ""
+    force = float(max(abs(v) for v in model.actuator_forcerange[driving[0]]))
+    kp, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])
+    return (
+        f" Its servo (kp {kp:.4g}, force limit {force:.4g}) can accelerate the {behind:.3g} of inertia behind it at "
+        f"{force / behind:.3g} per s^2: rate it lower (joints.{model.joint(joint).name}.effort), soften it (arm.kp "
+        "or hand.kp), or step finer (simulation.timestep)"
+    )
 
 
 def servo_problem(model: Any) -> tuple[str, str]:
@@ -138,10 +159,11 @@ def servo_problem(model: Any) -> tuple[str, str]:
         return problem, found.fastest[0]
     diverged = diverges(model)
     if diverged is not None:
-        when, joint = diverged
+        when, dof = diverged
+        joint = model.joint(int(model.dof_jntid[dof])).name
         problem = (
             f"it diverges {when:.3g} s into a trial run (home held {SETTLE:g} s, then random servo targets): MuJoCo "
-            f"finds a bad acceleration at joint {joint}. {_advice(found)}"
+            f"finds a bad acceleration at joint {joint}.{_strongest(model, dof)}"
         )
         return problem, joint
     return "", ""

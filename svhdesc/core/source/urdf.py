@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,10 +48,15 @@ def _number(element: etree._Element | None, key: str, default: float | None, whe
     return _floats(text, 1, (), f"{where}: {key}")[0]
 
 
-def _positive(values: tuple[float, ...], where: str) -> tuple[float, ...]:
-    if not all(v > 0 for v in values):
-        raise SvhdescError(f"{where}: sizes must be > 0, got {values}")
-    return values
+def _sized(geometry: Geometry, where: str) -> Geometry | None:
+    """A shape with sizes > 0; None (no shape, one warning) for one with a size 0, which has no extent to draw or
+    collide with (the laikago of pybullet_data draws its toes as spheres of radius 0); a negative size is refused."""
+    if any(v < 0 for v in geometry.size):
+        raise SvhdescError(f"{where}: sizes must be > 0, got {geometry.size}")
+    if not all(v > 0 for v in geometry.size):
+        warnings.warn(f"{where}: a <{geometry.kind}> of size {geometry.size} has no extent: left out", stacklevel=3)
+        return None
+    return geometry
 
 
 def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nth: int = 1) -> str:
@@ -130,7 +136,7 @@ def _geometry(
     packages: Mapping[str, Path],
     source: Path,
     where: str,
-) -> Geometry:
+) -> Geometry | None:
     origin = _pose(element.find("origin"), where)
     geometry = element.find("geometry")
     shape = [child for child in geometry if isinstance(child.tag, str)] if geometry is not None else []  # no comments
@@ -160,12 +166,12 @@ def _geometry(
     if kind == "box":
         if shape[0].get("size") is None:
             raise SvhdescError(f"{where}: <box> needs a 'size'")
-        return Geometry("box", origin, _positive(_floats(shape[0].get("size"), 3, (), where), where), rgba=rgba)
+        return _sized(Geometry("box", origin, _floats(shape[0].get("size"), 3, (), where), rgba=rgba), where)
     if kind == "cylinder":
         size = (_number(shape[0], "radius", None, where), _number(shape[0], "length", None, where))
-        return Geometry("cylinder", origin, _positive(size, where), rgba=rgba)
+        return _sized(Geometry("cylinder", origin, size, rgba=rgba), where)
     if kind == "sphere":
-        return Geometry("sphere", origin, _positive((_number(shape[0], "radius", None, where),), where), rgba=rgba)
+        return _sized(Geometry("sphere", origin, (_number(shape[0], "radius", None, where),), rgba=rgba), where)
     raise SvhdescError(f"{where}: unsupported geometry <{kind}>")
 
 
@@ -186,6 +192,13 @@ def _inertial(element: etree._Element | None, where: str) -> Inertial | None:
     return Inertial(mass, origin.xyz, tuple(float(v) for v in values))  # type: ignore[arg-type]
 
 
+def _shapes(
+    elements: list, link: str, materials: dict, packages: Mapping[str, Path], source: Path, where: str
+) -> tuple:
+    found = (_geometry(e, link, materials, packages, source, where) for e in elements)
+    return tuple(g for g in found if g is not None)
+
+
 def _link(
     element: etree._Element,
     materials: dict[str, tuple[float, ...]],
@@ -200,8 +213,8 @@ def _link(
     return Link(
         name=name,
         inertial=_inertial(element.find("inertial"), where),
-        visuals=tuple(_geometry(v, name, materials, packages, source, where) for v in element.findall("visual")),
-        collisions=tuple(_geometry(c, name, materials, packages, source, where) for c in element.findall("collision")),
+        visuals=_shapes(element.findall("visual"), name, materials, packages, source, where),
+        collisions=_shapes(element.findall("collision"), name, materials, packages, source, where),
     )
 
 
