@@ -29,10 +29,10 @@ from svhdesc.core.frames import pose_matrix
 from svhdesc.core.inertia import inertial_problem
 from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
-from svhdesc.core.settings.schema import Simulation
+from svhdesc.core.settings.schema import JointDynamics, Simulation
 from svhdesc.core.source.meshes import MeshError, load_mesh
 from svhdesc.core.source.packages import package_name_of
-from svhdesc.core.source.quirks import apply_joint_quirks
+from svhdesc.core.source.quirks import apply_joint_quirks, clashing_names
 from svhdesc.core.source.urdf import read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
 from svhdesc.errors import SvhdescError
@@ -107,6 +107,9 @@ def _read(source: Path, given: dict[str, Path], quirks: dict[str, Any]) -> tuple
     tree, inputs = expand_xacro(source, {}, given)
     if tree.tag != "robot":
         raise SvhdescError(f"{source}: not a URDF (its root element is <{tree.tag}>, not <robot>)")
+    for name, new in clashing_names(tree).items():  # SDFormat refuses a joint named like a link: renamed, and said
+        if name not in quirks:
+            quirks[name] = JointDynamics(rename=new)
     apply_joint_quirks(tree, quirks, {name: "--joint" for name in quirks})
     packages = _packages(tree, source, given)
     robot = read_urdf(tree, packages, source, inputs)
@@ -292,8 +295,9 @@ def _drives(
 
 
 def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """The ``--joint`` quirks as the config writes them: the keys given, in the schema's order."""
-    keys = ("effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
+    """The quirks as the config writes them (``--joint``'s, and the renames of joints named like a link), the keys
+    given, in the schema's order."""
+    keys = ("rename", "effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
     return {name: {k: getattr(q, k) for k in keys if getattr(q, k) is not None} for name, q in quirks.items()}
 
 
@@ -339,6 +343,13 @@ def _arm_blocks(
             "The source rates no drive (effort or velocity 0) for: " + ", ".join(guessed) + ". Their effort and "
             "velocity are a GUESS (1.5 x the gravity load at home, at least 10 rad/s^2 on the inertia it moves; "
             "1 rad/s, 0.1 m/s): rate them",
+            110,
+        )
+    renamed = {name: q["rename"] for name, q in given.items() if "rename" in q}
+    if renamed:
+        comment += "\n" + textwrap.fill(
+            "Renamed, as SDFormat (Gazebo) refuses a joint named like a link: "
+            + ", ".join(f"{old} -> {new}" for old, new in renamed.items()),
             110,
         )
     raised = [j for j in arm if drives[j.name].raised]

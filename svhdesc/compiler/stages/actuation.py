@@ -62,8 +62,8 @@ def _joint_dynamics(joint: Joint, overrides: dict[str, Any], friction_cap: float
 
 def _check_joint_names(robot: Robot, overrides: dict[str, Any]) -> None:
     names = {j.name for j in robot.joints}
-    for name in overrides:
-        if name not in names:
+    for name, quirk in overrides.items():
+        if name not in names and getattr(quirk, "rename", None) is None:  # a renamed joint goes by its new name
             at = getattr(overrides, "lines", {}).get(name, "config")
             raise SvhdescError(f"{at}: joints.{name}: no joint {name!r} in robot {robot.name}")
 

@@ -470,6 +470,8 @@ class JointDynamics(Located):
     upper: float | None = _field(None, optional(number(-1e3, 1e3)))
     # its <mimic> tag: "drop" (ignored), or the joint it follows instead (with the tag's multiplier and offset)
     mimic: str | None = _field(None, optional(text))
+    # its new name, where the source's cannot stand (a joint named like a link, which SDFormat refuses)
+    rename: str | None = _field(None, optional(text))
 
 
 def _joint_dynamics(value: Any, at: str) -> JointDynamics:

@@ -7,7 +7,9 @@ joint as the settings say.
   with the tag's multiplier and offset;
 - ``effort``, ``velocity``: the drive's rating where the source gives none (``<limit effort="0">``);
 - ``lower``, ``upper``: the limits where the source's are unusable (inverted, as pybullet's "no limit" convention
-  writes them, or absent).
+  writes them, or absent);
+- ``rename: NEW``: the joint's name where the source's cannot stand: a joint named like a link (the SO-100's
+  ``gripper``), which SDFormat refuses, as its frames share one namespace. ``<mimic>`` tags naming it follow.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ def apply_joint_quirks(tree: etree._Element, quirks: Mapping[str, Any], where: M
     file:line in the config, for the one error a quirk on no joint of the source gives."""
     joints = {element.get("name"): element for element in tree.findall("joint")}
     for name, quirk in quirks.items():
-        patch = {key: _value(quirk, key) for key in (*LIMIT_KEYS, "mimic")}
+        patch = {key: _value(quirk, key) for key in (*LIMIT_KEYS, "mimic", "rename")}
         if all(value is None for value in patch.values()):
             continue  # damping and friction only: the actuation stage applies those
         element = joints.get(name)
@@ -46,7 +48,38 @@ def apply_joint_quirks(tree: etree._Element, quirks: Mapping[str, Any], where: M
             for key, value in limits.items():
                 limit.set(key, repr(float(value)))
         _patch_mimic(element, patch["mimic"], name, where)
+    for name, quirk in quirks.items():  # last: the other keys name the source's joints
+        new = _value(quirk, "rename")
+        if new is not None:
+            _rename(tree, joints[name], str(new), where.get(name, "config"))
     return tree
+
+
+def _rename(tree: etree._Element, element: etree._Element, new: str, where: str) -> None:
+    taken = {e.get("name") for e in tree.findall("joint")} | {e.get("name") for e in tree.findall("link")}
+    if new in taken:
+        raise SvhdescError(f"{where}: joints.{element.get('name')}.rename: {new!r} is taken by a link or joint")
+    old = element.get("name")
+    element.set("name", new)
+    for mimic in tree.iter("mimic"):
+        if mimic.get("joint") == old:
+            mimic.set("joint", new)
+
+
+def clashing_names(tree: etree._Element) -> dict[str, str]:
+    """{joint: a free new name} for every joint named like a link, which SDFormat refuses: ``NAME_joint``."""
+    links = {e.get("name") for e in tree.findall("link")}
+    taken = links | {e.get("name") for e in tree.findall("joint")}
+    renames = {}
+    for element in tree.findall("joint"):
+        name = element.get("name")
+        if name in links:
+            new, n = f"{name}_joint", 2
+            while new in taken:
+                new, n = f"{name}_joint{n}", n + 1
+            taken.add(new)
+            renames[str(name)] = new
+    return renames
 
 
 def _patch_mimic(element: etree._Element, mimic: str | None, name: str, where: Mapping[str, str]) -> None:
