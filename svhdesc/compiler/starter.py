@@ -331,6 +331,13 @@ def _arm_blocks(
         if damping > 0 and "damping" not in entry:
             entry["damping"] = damping
     quirks = {name: entry for name, entry in quirks.items() if entry}
+    if quirks:
+        lines += _block(_joints_comment(arm, drives, given), {"joints": quirks})
+    return lines
+
+
+def _joints_comment(arm: list[Joint], drives: dict[str, Drive], given: dict[str, dict[str, Any]]) -> str:
+    """What the ``joints:`` block holds and why: damping, guessed and raised ratings, renames."""
     guessed = [j.name for j in arm if drives[j.name].guessed]
     comment = (
         "the arm joints' damping (N m s/rad, N s/m): effort / velocity of the source's <limit>, so that a\n"
@@ -361,9 +368,7 @@ def _arm_blocks(
             "rated drives hold, to keep the rating)",
             110,
         )
-    if quirks:
-        lines += _block(comment, {"joints": quirks})
-    return lines
+    return comment
 
 
 def _channel_blocks(spec: CouplingSpec, robot: Robot, out: Path) -> list[str]:
