@@ -141,26 +141,47 @@ def _geometry(stage: Usd.Stage, path: Sdf.Path, geometry: Geometry, assets: Asse
     return shape
 
 
-def _determinant(m: np.ndarray) -> float:
-    a = [[float(m[i][j]) for j in range(3)] for i in range(3)]
-    return (
-        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-    )
+DEGENERATE = 1e-9  # relative: principal moments this close are one moment (a cylinder's two equal ones)
+
+
+def _canonical(vector: np.ndarray) -> np.ndarray:
+    """A unit eigenvector's sign fixed: its largest component positive."""
+    return vector if vector[int(np.argmax(np.abs(vector)))] > 0.0 else -vector
+
+
+def _plane_axis(normal: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to ``normal``, from the coordinate axis least aligned with it: the axis chosen
+    inside a degenerate pair of moments, whichever the eigensolver returned (a few ulps would turn it)."""
+    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = helper - exact.fsum(helper * normal) * normal
+    return u / exact.norm(u)
+
+
+def principal_axes(inertia: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments (ascending) and the rotation whose columns are their axes, the same on any CPU: the
+    plain-Python eigensolver, each axis' sign fixed, and any axis inside a degenerate pair chosen by ``_plane_axis``."""
+    ixx, ixy, ixz, iyy, iyz, izz = inertia
+    moments, axes = exact.eigh3(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+    close = [abs(moments[i + 1] - moments[i]) <= DEGENERATE * abs(moments[2]) for i in range(2)]
+    if all(close):
+        return moments, np.eye(3)
+    if close[0]:  # the first two equal: the third axis is the one defined
+        third = _canonical(axes[:, 2])
+        first = _plane_axis(third)
+        return moments, np.column_stack([first, np.cross(third, first), third])
+    first = _canonical(axes[:, 0])
+    second = _plane_axis(first) if close[1] else _canonical(axes[:, 1])
+    return moments, np.column_stack([first, second, np.cross(first, second)])
 
 
 def _mass(prim: Usd.Prim, link: Link) -> None:
-    """Mass, centre of mass and the inertia tensor as principal moments and axes (the plain-Python eigensolver)."""
+    """Mass, centre of mass and the inertia tensor as principal moments and axes."""
     inertial = link.inertial
     assert inertial is not None
     mass = UsdPhysics.MassAPI.Apply(prim)
     mass.CreateMassAttr(float(inertial.mass))
     mass.CreateCenterOfMassAttr(Gf.Vec3f(*(float(v) for v in inertial.com)))
-    ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
-    moments, axes = exact.eigh3(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
-    if _determinant(axes) < 0.0:  # a rotation, not a reflection
-        axes = np.column_stack([axes[:, 0], axes[:, 1], -axes[:, 2]])
+    moments, axes = principal_axes(inertial.inertia)
     mass.CreateDiagonalInertiaAttr(Gf.Vec3f(*(float(v) for v in moments)))
     w, x, y, z = quat_from_matrix(axes)
     mass.CreatePrincipalAxesAttr(Gf.Quatf(w, x, y, z))

@@ -16,7 +16,20 @@ from pathlib import Path
 RTOL = 1e-10  # relative; the perturbation test (SVHDESC_PERTURB_ULPS) moves written numbers by up to ~1e-12
 # Every text output kind: a build on another CPU may move a written number in any of them (test_determinism checks
 # that every text file under generated/ has one of these suffixes).
-TEXT_SUFFIXES = {".urdf", ".xacro", ".xml", ".srdf", ".yaml", ".launch", ".py", ".obj", ".dae", ".json", ".txt"}
+TEXT_SUFFIXES = {
+    ".urdf",
+    ".xacro",
+    ".xml",
+    ".srdf",
+    ".yaml",
+    ".launch",
+    ".py",
+    ".obj",
+    ".dae",
+    ".json",
+    ".txt",
+    ".usda",
+}
 _NUMBER = re.compile(rb"([-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?)")
 
 

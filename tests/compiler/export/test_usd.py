@@ -146,3 +146,21 @@ def test_the_couplings_as_newton_and_physx_mimics(variant: str) -> None:
         assert prim.GetRelationship(f"physxMimicJoint:rot{axis}:referenceJoint").GetTargets() == [leader_path]
         assert math.isclose(prim.GetAttribute(f"physxMimicJoint:rot{axis}:gearing").Get(), -ratio, rel_tol=F32)
         assert math.isclose(prim.GetAttribute(f"physxMimicJoint:rot{axis}:offset").Get(), -offset, abs_tol=1e-7)
+
+
+def test_principal_axes_of_equal_moments_do_not_turn_with_the_last_bits() -> None:
+    """A cylinder's two equal moments leave their axes free in the eigensolver: a few ulps turned them (another CPU
+    would write another USD). The axes are chosen, not found, there (moved by ulps at most), and still give back the
+    tensor. Seeded fault:
+    ``DEGENERATE = 0`` (axes from the eigensolver alone): the perturbed axes differ."""
+    from svhdesc.compiler.export.usd import principal_axes
+
+    turn = np.array([[0.36, 0.48, -0.8], [-0.8, 0.6, 0.0], [0.48, 0.64, 0.6]])  # a rotation
+    tensor = turn @ np.diag([1.0e-4, 2.9e-4, 2.9e-4]) @ turn.T
+    flat = (tensor[0, 0], tensor[0, 1], tensor[0, 2], tensor[1, 1], tensor[1, 2], tensor[2, 2])
+    moments, axes = principal_axes(flat)
+    assert np.allclose(axes @ np.diag(moments) @ axes.T, tensor, rtol=0, atol=1e-15)
+    assert np.isclose(np.linalg.det(axes), 1.0)
+    for ulps in (1, 4, 16):
+        nudged = tuple(v * (1.0 + ulps * 2.2e-16) if i % 2 else v for i, v in enumerate(flat))
+        assert np.allclose(principal_axes(nudged)[1], axes, rtol=0, atol=1e-12), ulps
