@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
@@ -45,50 +46,71 @@ def hand_config(tmp_path: Path, collision: dict) -> Path:
     return path
 
 
-def compile_hand(config: Path, cache: Path) -> tuple[tuple[int, int, int], list[bytes]]:
-    """The config's hand compiled in this process (tests/support.py ``compiled_variant``; the outputs a build samples
-    in MuJoCo are not made): the decompositions (run, from the cache, from committed outputs), as ``build
-    --timings`` counts them, and the index fingertip's hulls."""
+def l_shaped_mini(project: Callable[..., Path], max_convex_hull: int) -> Path:
+    """The mini robot with its finger's collision mesh an L of two boxes (CoACD cuts it in two in well under a
+    second), decomposed with ``max_convex_hull``; its config."""
+    root = project("mini")
+    boxes = [trimesh.creation.box((0.02, 0.01, 0.04)), trimesh.creation.box((0.02, 0.03, 0.01))]
+    boxes[1].apply_translation((0.0, 0.01, -0.015))
+    trimesh.boolean.union(boxes).export(root / "l.stl")
+    finger = root / "finger.xacro"
+    finger.write_text(finger.read_text().replace('filename="cube.stl" scale="1 1 2"', 'filename="l.stl"'))
+    return set_hull_cap(root / "mini.yaml", max_convex_hull)
+
+
+def set_hull_cap(config: Path, max_convex_hull: int) -> Path:
+    data = yaml.safe_load(config.read_text())
+    params = {"max_convex_hull": max_convex_hull}
+    data["collision"] = {"mode": "hull", "links": {"{hand}_p": {"mode": "decompose", "params": params}}}
+    config.write_text(yaml.safe_dump(data, sort_keys=False))
+    return config
+
+
+def compile_hull(config: Path, cache: Path) -> tuple[tuple[int, int, int], list[bytes]]:
+    """The config's robot compiled in this process (tests/support.py ``compiled_variant``; the outputs a build
+    samples in MuJoCo are not made): the decompositions (run, from the cache, from committed outputs), as ``build
+    --timings`` counts them, and the decomposed mesh's hulls."""
     compiled, hulls = compiled_variant(config, cache)
     counts = (hulls.counts["decomposed"], hulls.counts["cached"], hulls.counts["committed"])
     files = compiled.assets.files
-    return counts, [files[name] for name in sorted(files) if name.startswith("t_hull_")]
+    return counts, [files[name] for name in sorted(files) if name.startswith("l_hull_")]
 
 
-@pytest.mark.slow
-def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path) -> None:
-    """Through the build's hull source, in process (``compile_hand``; the CLI's counts and --rebuild-collisions:
-    test_rebuild_collisions_forces_decomposition)."""
+def test_cache_hit_miss_and_corrupt_entry(tmp_path: Path, project: Callable[..., Path]) -> None:
+    """Through the build's hull source, in process (``compile_hull``; the CLI's counts and --rebuild-collisions:
+    test_rebuild_collisions_forces_decomposition), on the mini robot's L-shaped finger."""
     cache = tmp_path / "cache"
-    one_tip = {"mode": "hull", "links": {"{hand}_t": {"mode": "decompose", "params": {"max_convex_hull": 3}}}}
-    config = hand_config(tmp_path, one_tip)
-    counts, cold = compile_hand(config, cache)
+    config = l_shaped_mini(project, 3)
+    counts, cold = compile_hull(config, cache)
     assert counts == (1, 0, 0)
     assert 1 < len(cold) <= 3
     # Warm: no decomposition, identical hulls.
-    assert compile_hand(config, cache) == ((0, 1, 0), cold)
+    assert compile_hull(config, cache) == ((0, 1, 0), cold)
     # A parameter change misses.
-    one_tip["links"]["{hand}_t"]["params"]["max_convex_hull"] = 2
-    hand_config(tmp_path, one_tip)
-    counts, capped = compile_hand(config, cache)
+    counts, capped = compile_hull(set_hull_cap(config, 1), cache)
     assert counts == (1, 0, 0)
-    assert len(capped) <= 2
+    assert len(capped) == 1
     # A corrupt entry is detected and rebuilt, never used.
     entries = [
         p.parent
         for p in cache.rglob("entry.json")
-        if json.loads(p.read_text())["meta"]["params"]["max_convex_hull"] == 2
+        if json.loads(p.read_text())["meta"]["params"]["max_convex_hull"] == 1
     ]
     assert len(entries) == 1
     hull_file = sorted(entries[0].glob("hull_*.stl"))[0]
     hull_file.write_bytes(hull_file.read_bytes()[:100])
     with pytest.warns(CacheWarning, match="does not match its digest; decomposing again"):
-        assert compile_hand(config, cache) == ((1, 0, 0), capped)
+        assert compile_hull(config, cache) == ((1, 0, 0), capped)
 
 
 @pytest.mark.slow
-def test_rebuild_collisions_forces_decomposition(tmp_path: Path) -> None:
-    config = hand_config(tmp_path, {"mode": "hull", "links": {"{hand}_q": {"mode": "decompose"}}})
+def test_rebuild_collisions_forces_decomposition(tmp_path: Path, project: Callable[..., Path]) -> None:
+    """Through the CLI's counts, on the mini robot with its finger's collision mesh decomposed (a build of the hand
+    spent its time sampling the model, not decomposing). Seeded fault: --rebuild-collisions not forcing -> the
+    second build's counts are (0, 1, 0)."""
+    root = project("mini")
+    config = root / "mini.yaml"
+    config.write_text(config.read_text().replace("collision: {mode: hull}", "collision: {mode: decompose}"))
     args = ("build", "--config", str(config), "--out", str(tmp_path / "out"), "--timings")
     assert decomposition_counts(cli(*args, cache=tmp_path / "c").stderr) == (1, 0, 0)
     assert decomposition_counts(cli(*args, "--rebuild-collisions", cache=tmp_path / "c").stderr) == (1, 0, 0)
