@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import functools
+import json
 import os
 import signal
 import subprocess
@@ -79,21 +80,45 @@ def fails_cleanly(out: Path | None, *args: str, match: str) -> str:
 
 @functools.cache
 def built() -> Path:
-    """A fresh build of every variant (not the committed one), shared by the whole run: the first xdist worker to
-    ask (or ``start_build``'s background process) builds it under the run's folder (tests/conftest.py), the others
-    wait for it and read it."""
+    """A fresh build of every variant from the sources alone, shared by the whole run: every collision mesh
+    decomposed again and every result the build samples in MuJoCo sampled again, as ``build --check`` does, nothing
+    seeded from generated/ or taken from a cache (tests/compiler/pipeline/test_check.py compares it with
+    generated/: the run's one decomposition of the shipped meshes). The first xdist worker to ask (or
+    ``start_build``'s background process) builds it under the run's folder (tests/conftest.py), the others wait for
+    it and read it; ``build_counts()`` says where its hulls came from."""
     run = Path(os.environ.get("SVHDESC_TEST_RUN") or tempfile.mkdtemp(prefix="svhdesc-test-run-"))
     out, done = run / "build", run / BUILD_DONE
     with open(run / "build.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
-            result = run_cli("build", "--out", str(out))
-            assert result.returncode == 0, result.stderr
+            (run / BUILD_COUNTS).write_text(json.dumps(_build_afresh(out)))
             done.touch()
     return out
 
 
+def build_counts() -> dict[str, int]:
+    """The session build's hulls by origin: decomposed, from the cache, from committed outputs."""
+    built()
+    return json.loads((Path(os.environ["SVHDESC_TEST_RUN"]) / BUILD_COUNTS).read_text())
+
+
+def _build_afresh(out: Path) -> dict[str, int]:
+    """``svhdesc build --out OUT --rebuild-collisions`` with the sampled results recomputed too (what ``build --check``
+    trusts), through the builder: the hulls' counts come back."""
+    from svhdesc.compiler.decompose import HullCache
+    from svhdesc.compiler.decompose.source import HullSource, default_cache_dir
+    from svhdesc.compiler.pipeline import builder
+    from svhdesc.compiler.probes.cache import recomputing
+
+    config = load_config(REPO / "config" / "svhdesc.yaml")
+    hulls = HullSource(HullCache(default_cache_dir()), force=True)
+    with recomputing(True):
+        builder.build(config, list(config.variants), out, {}, hulls)
+    return dict(hulls.counts)
+
+
 BUILD_DONE = "build.done"
+BUILD_COUNTS = "build.counts.json"
 BUILD_STARTED = "build.started"  # the background build's process id, written once
 
 

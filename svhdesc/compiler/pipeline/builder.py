@@ -125,13 +125,13 @@ def check(
     with tempfile.TemporaryDirectory(prefix="svhdesc-check-") as tmp:
         fresh = Path(tmp)
         variants = _write_all(config, names, out, fresh, extra_packages, hulls, timings, trust_out=False)
-        differences = []
+        found = []
         for variant in variants:
-            differences += _differences(fresh / variant, out / variant, variant)
-    return differences
+            found += differences(fresh / variant, out / variant, variant)
+    return found
 
 
-def _differences(new: Path, old: Path, name: str) -> list[str]:
+def differences(new: Path, old: Path, name: str) -> list[str]:
     """Files of a fresh build that do not agree with ``old`` (``agreement``: bytes, or numbers within 1e-10)."""
     new_files = {p.relative_to(new) for p in new.rglob("*") if p.is_file()}
     old_files = {p.relative_to(old) for p in old.rglob("*") if p.is_file()} if old.is_dir() else set()

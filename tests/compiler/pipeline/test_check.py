@@ -10,21 +10,25 @@ from pathlib import Path
 
 import pytest
 
-from tests.support import HULL_CHECK, REPO, run_cli
+from svhdesc.compiler.pipeline.builder import differences as differences_of
+from tests.support import HULL_CHECK, REPO, VARIANTS, build_counts, run_cli
 
-# The check below trusts no cache: it decomposes every hand mesh again and leaves the hulls in the run's hull cache;
-# the group runs it first (collection order) so that the other --check runs of the group (here and in
-# test_determinism.py, each with --trust-cache: what they test is not decomposition) find their hulls there.
+# The session build (tests/support.py built()) is the run's build from the sources alone: every collision mesh
+# decomposed, every sampled result sampled again. The guard below compares it with generated/ as `build --check`
+# compares (builder.differences); the CLI's --check itself, which trusts no cache either, is tested on the mini
+# robot (test_hull_trust.py) and, with --trust-cache, below and in test_determinism.py.
 pytestmark = HULL_CHECK
 
 
 @pytest.mark.slow
-def test_committed_generated_models_are_current() -> None:
-    """The CI guard: generated/ is what the sources give. No hull is taken from the outputs or the hull cache: every
-    collision mesh is decomposed again (seeded fault: --check reading the cache by default: "24 from the cache")."""
-    result = run_cli("build", "--check", "--timings")
-    assert result.returncode == 0, result.stderr
-    assert "0 from the cache, 0 from committed outputs" in result.stderr, result.stderr
+def test_committed_generated_models_are_current(session_build: Path) -> None:
+    """The CI guard: generated/ is what the sources give, file for file (bytes, or numbers within 1e-10), the
+    hulls decomposed afresh (seeded fault: the session build seeding its hulls from generated/: "24 from committed
+    outputs"; a hull of generated/ edited: "assets/... (differs")."""
+    counts = build_counts()
+    assert counts.get("decomposed", 0) > 0 and counts.get("cached", 0) == counts.get("committed", 0) == 0, counts
+    differences = [line for v in VARIANTS for line in differences_of(session_build / v, REPO / "generated" / v, v)]
+    assert differences == []
 
 
 def _edit_with_manifest(variant: Path, relative: str, old: str, new: str) -> None:
