@@ -49,8 +49,9 @@ def pytest_unconfigure(config: pytest.Config) -> None:
         shutil.rmtree(os.environ["SVHDESC_TEST_RUN"], ignore_errors=True)
 
 
-# The session build decomposes every shipped collision mesh (tests/support.py built(): the run's `build --check`). Started in the background once the run is known to need it,
-# it overlaps the tests that come first instead of keeping a worker waiting on built()'s lock for it.
+# The session build decomposes every shipped collision mesh (tests/support.py built(): the run's `build --check`).
+# Started in the background once the run is known to need it, it overlaps the tests that come first instead of
+# keeping a worker waiting on built()'s lock for it.
 def _needs_session_build(item: pytest.Item) -> bool:
     import tests.support
 
