@@ -9,9 +9,10 @@ packages the meshes name are found beside the source.
 from __future__ import annotations
 
 import importlib.util
+import math
 import os
 import textwrap
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +64,8 @@ def _written_path(path: Path, config_dir: Path) -> str:
 
 def _mesh_packages(tree: etree._Element) -> list[str]:
     uris = [m.get("filename", "") for m in tree.iter("mesh")]
-    found = {u[len("package://") :].partition("/")[0] for u in uris if u.startswith("package://")}
+    # package:///NAME/... (Talos' full model writes an empty authority) names NAME, as resolve_uri reads it
+    found = {u[len("package://") :].lstrip("/").partition("/")[0] for u in uris if u.startswith("package://")}
     return sorted(found)
 
 
@@ -164,6 +166,7 @@ def starter(source: Path, out: Path, given: dict[str, Path], quirks: dict[str, A
     quirks = quirks or {}
     robot, mimics, packages = _read(source, given, quirks)
     config_dir = out.parent
+    robot = _rate_leaders(robot, mimics, quirks)
     spec = spec_from_mimics(robot, mimics, source)
     coupled = {c.joint for c in spec.couplings} if spec else set()
     channels = [c.joint for c in spec.channels] if spec else []
@@ -241,6 +244,36 @@ def _floor_block(robot: Robot, home: dict[str, float]) -> list[str]:
         f"the floor of the scene {FLOOR_GAP:g} m below the robot at home: it reaches {-lowest:.3g} m below its root",
         {"scene": {"floor_z": floor}},
     )
+
+
+def _rate_leaders(robot: Robot, mimics: list, quirks: dict[str, Any]) -> Robot:
+    """A <mimic> leader becomes a channel, which needs a rating: where the source gives none (Romeo's hands: effort
+    and velocity 0), the guess an unrated arm joint gets (``drives.size_drive``), written as joints.NAME quirks
+    (``quirks``, updated) and applied to ``robot``."""
+    movable = {j.name: j for j in robot.joints if j.movable}
+    follows = {m.joint: m.leader for m in mimics}
+    leaders = set()
+    for mimic in mimics:
+        leader, seen = mimic.leader, {mimic.joint}
+        while leader in follows and leader not in seen:
+            seen.add(leader)
+            leader = follows[leader]
+        leaders.add(leader)
+    unrated = [movable[n] for n in sorted(leaders) if n in movable and min(movable[n].effort, movable[n].velocity) <= 0]
+    if not unrated:
+        return robot
+    home = {j.name: _home(j) for j in movable.values()}
+    loads = joint_loads(robot, home, _masses_for_loads(robot))
+    rated = {}
+    for joint in unrated:
+        # the channel carries its followers too: their loads through the mimic's multiplier
+        carried = [(joint.name, 1.0)] + [(m.joint, m.multiplier) for m in mimics if m.leader == joint.name]
+        found = [(loads[n], f) for n, f in carried if n in loads]
+        load = Load(math.fsum(abs(x.gravity * f) for x, f in found), math.fsum(x.inertia * f * f for x, f in found))
+        drive = size_drive(joint.type, joint.effort, joint.velocity, load)
+        rated[joint.name] = replace(joint, effort=drive.effort, velocity=drive.velocity)
+        quirks[joint.name] = JointDynamics(effort=drive.effort, velocity=drive.velocity)
+    return replace(robot, joints=tuple(rated.get(j.name, j) for j in robot.joints))
 
 
 def _masses_for_loads(robot: Robot) -> dict[str, Inertial]:

@@ -14,6 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+import trimesh
 import yaml
 from lxml import etree
 
@@ -282,3 +283,34 @@ def test_a_joint_named_like_a_link_is_renamed_and_said(tmp_path: Path) -> None:
     links = {e.get("name") for e in urdf_out.iter("link")}
     joints = {e.get("name") for e in urdf_out.iter("joint")}
     assert "gripper_joint" in joints and not links & joints
+
+
+def test_an_unrated_mimic_leader_gets_the_guess_an_arm_joint_gets(tmp_path: Path) -> None:
+    """Romeo's hands: a <mimic> leader rated effort 0 and velocity 0 becomes a channel, which needs a rating: init
+    guesses it from the loads it carries, its followers' included, and writes it as joints.NAME quirks (seeded
+    fault: _rate_leaders left out: 'joint hand leads <mimic> joints, so it becomes a channel: it needs ...')."""
+    unrated = '<limit lower="0" upper="1" effort="0" velocity="0"/>'
+    body = link("a", 0.2, 0.1) + joint("hand", "base", "a", limit=unrated, z=0.0) + link("b", 0.1, 0.1)
+    body += joint("finger", "a", "b", z=0.1).replace(
+        '<joint name="finger" type="revolute">', '<joint name="finger" type="revolute"><mimic joint="hand"/>'
+    )
+    source = urdf(tmp_path, "hand", body)
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    guess = written["joints"]["hand"]
+    assert guess["velocity"] == 1.0 and guess["effort"] > 0
+    model = model_of(source.with_suffix(".yaml"))
+    assert model.nu == 1 and model.neq == 1 and model.actuator_forcerange[0][1] == guess["effort"]
+
+
+def test_a_package_uri_with_an_empty_authority_names_its_package(tmp_path: Path) -> None:
+    """Talos' full model writes package:///example-robot-data/...: init finds that package above the source, as the
+    build resolves it (seeded fault: the leading '/' kept: "its meshes name package ''")."""
+    (tmp_path / "pkg" / "meshes").mkdir(parents=True)
+    box = trimesh.creation.box(extents=(0.04, 0.04, 0.2))
+    box.export(tmp_path / "pkg" / "meshes" / "part.stl")
+    meshed = link("a", 1.0).replace('<box size="0.04 0.04 0.2"/>', '<mesh filename="package:///pkg/meshes/part.stl"/>')
+    source = urdf(tmp_path / "pkg", "meshed", meshed + joint("j", "base", "a", z=0.0))
+    code, stderr, written = init(source)
+    assert code == 0, stderr
+    assert list(written["packages"]) == ["pkg"]
