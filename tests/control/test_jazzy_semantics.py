@@ -4,7 +4,8 @@ adapter (svhdesc/ros2) relies on, beside the noetic defaults that tests/control/
 Seeded faults (each failed its test, then reverted): JAZZY with empty_goal_stops True -> the empty goal is accepted;
 JAZZY.preempted_code SUCCESSFUL -> preemption code 0; zero_goal_time_waits ignored in _check_goal -> the goal aborts
 with -5 at once; holds_unnamed False -> the unnamed joint goes on to its old target; check() skipping the running
-test -> a stopped controller's goal passes the check."""
+test -> a stopped controller's goal passes the check; cancel holding only the canceled goal's joints -> the joint
+the partial goal left out goes on to its kept command."""
 
 from __future__ import annotations
 
@@ -100,6 +101,22 @@ def test_a_partial_goal_stops_the_joints_it_leaves_out(jazzy: tuple[Simulation, 
     _run(sim, core, 1.0)
     assert sim.desired([first]).positions[0] == pytest.approx(held, abs=1e-9)
     assert held < far - 0.1
+
+
+def test_a_canceled_partial_goal_holds_every_joint(jazzy: tuple[Simulation, JointTrajectoryCore, Sink]) -> None:
+    """set_hold_position on cancel: every joint of the controller holds where it is, the one a partial goal left out
+    (still closing on the command it kept) too. Deterministic here; over ROS 2 the cancel's instant is the node's."""
+    sim, core, sink = jazzy
+    first, second = core.joints[0], core.joints[1]
+    assert core.submit(Goal([first], [Point(1.0, (sim.limits(first)[1],))]), "a") is None
+    _run(sim, core, 0.5)
+    assert core.submit(Goal([second], [Point(1.0, (sim.desired([second]).positions[0],))]), "b") is None
+    kept = sim.desired([first]).positions[0]
+    assert core.cancel(lambda handle: handle == "b")
+    where = sim.positions()[first]
+    assert abs(kept - where) > 1e-3  # still on its way: the case
+    _run(sim, core, 0.5)
+    assert sim.desired([first]).positions[0] == pytest.approx(where, abs=1e-9)
 
 
 def test_a_stopped_controller_fails_the_check(jazzy: tuple[Simulation, JointTrajectoryCore, Sink]) -> None:
