@@ -459,7 +459,8 @@ def _coupling_text(spec: CouplingSpec, source: Path) -> str:
     couplings = [{"joint": c.joint, "follows": c.channel, "poly": list(c.coeffs)} for c in spec.couplings]
     header = (
         f"# The coupling spec of {source.name}, from its <mimic> tags (svhdesc init): each channel is one drive\n"
-        "# (range in rad or m, effort, velocity from the leader joint's <limit>); each coupled joint follows one\n"
-        "# channel as joint = poly[0] + poly[1] * channel + poly[2] * channel^2 + ... (docs/any-robot.md).\n"
+        "# (range in rad or m, effort, velocity from the leader joint's <limit>; the range narrowed to where every\n"
+        "# follower stays inside its own limits); each coupled joint follows one channel as\n"
+        "# joint = poly[0] + poly[1] * channel + poly[2] * channel^2 + ... (docs/any-robot.md).\n"
     )
     return header + _dump({"channels": channels, "couplings": couplings}) + "\n"

@@ -178,12 +178,13 @@ def plan_variant(variant: Variant, extra_packages: dict[str, Path], hulls: HullS
     source = read_source(variant, packages, timings)
     settings, hand = variant.settings, source.robot.hand
     spec_path = variant.coupling_path  # None: a robot without couplings
+    widen = settings.coupled_limits == "widen"
     with timings.stage("coupling"):
         if spec_path is not None:
             spec, prefix = load_spec(spec_path), hand.prefix
         else:  # the source's own <mimic> tags, with the source's full joint names
-            spec, prefix = spec_from_mimics(source.robot, source.mimics, variant.xacro), None
-    coupled = Coupled(spec, prefix, settings.coupled_limits == "widen", settings.hand.at("prefix"))
+            spec, prefix = spec_from_mimics(source.robot, source.mimics, variant.xacro, narrow=not widen), None
+    coupled = Coupled(spec, prefix, widen, settings.hand.at("prefix"))
     rules = collision_rules(source.robot, settings.collision, hand.prefix)
     jobs = tuple(decomposition_jobs(source.robot, rules))
     inputs = (*source.inputs, *([spec_path] if spec_path is not None else []))

@@ -63,10 +63,14 @@ def load_spec(path: Path) -> CouplingSpec:
     return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
 
 
-def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> CouplingSpec | None:
+def spec_from_mimics(
+    robot: Robot, mimics: list[SourceMimic], path: Path, *, narrow: bool = True
+) -> CouplingSpec | None:
     """The coupling spec a URDF's ``<mimic>`` tags make when the config gives none: each leader a channel (its
-    range, effort and velocity from the leader joint's limits), each mimic joint a linear coupling
-    [offset, multiplier]. A mimic of a mimic is composed onto the chain's first leader. None: no mimic tags."""
+    range, effort and velocity from the leader joint's limits; with ``narrow``, the range where every follower
+    stays inside its limits, else the followers' limits are apply_spec's to widen), each mimic joint a linear
+    coupling [offset, multiplier]. A mimic of a mimic is composed onto the chain's first leader. None: no mimic
+    tags."""
     joints = {j.name: j for j in robot.joints}
     mimics = _movable_mimics(mimics, joints)
     if not mimics:
@@ -99,9 +103,48 @@ def spec_from_mimics(robot: Robot, mimics: list[SourceMimic], path: Path) -> Cou
                 f"{where_}: joint {name} leads <mimic> joints, so it becomes a channel: it needs a <limit> with "
                 "lower < upper, effort > 0 and velocity > 0 (or give a coupling spec in the config)"
             )
-        channels.append(Channel(name, name, joint.lower, joint.upper, joint.effort, joint.velocity))
+        at = joint.source or f"{path}: joint {name}"  # a joint's source names it
+        followers = [c for c in couplings if c.channel == name] if narrow else []
+        lower, upper = _followers_range(joint, followers, joints, at)
+        channels.append(Channel(name, name, lower, upper, joint.effort, joint.velocity))
         lines[name] = where_
     return CouplingSpec(path, tuple(channels), tuple(couplings), lines)
+
+
+def _followers_range(
+    leader: Joint, couplings: list[Coupling], joints: Mapping[str, Joint], at: str
+) -> tuple[float, float]:
+    """The part of a leader's range in which every follower (``offset + multiplier * leader``) stays inside its own
+    limits: the channel's range. A linkage's stop holds the leader there (the Alex's PSYONIC fingers: q2 = 0.72 +
+    1.06 q1 reaches its upper limit at q1 = 1.83 of 2.09); one warning names the followers that narrow it."""
+    lower, upper, narrowing = leader.lower, leader.upper, []
+    for coupling in couplings:
+        follower = joints[coupling.joint]
+        offset, factor = coupling.coeffs
+        reached = sorted((offset + factor * leader.lower, offset + factor * leader.upper))
+        inside = reached[0] >= follower.lower - LIMIT_TOL and reached[1] <= follower.upper + LIMIT_TOL
+        if follower.type == "continuous" or factor == 0.0 or inside:
+            continue  # no limits left (apply_spec's tolerance); a constant outside its limits is apply_spec's error
+        low, high = sorted(((follower.lower - offset) / factor, (follower.upper - offset) / factor))
+        if low > lower or high < upper:
+            narrowing.append(f"{follower.name} [{follower.lower:.6g}, {follower.upper:.6g}]")
+        lower, upper = max(lower, low), min(upper, high)
+    if not narrowing:
+        return lower, upper
+    names = ", ".join(narrowing)
+    if not lower < upper:
+        raise SvhdescError(
+            f"{at}: it leads <mimic> joints that leave it no range inside their limits ({names}): "
+            f"fix their limits or mimics with joints.NAME.lower, .upper or .mimic in the config (svhdesc init "
+            "--joint NAME.KEY=VALUE)"
+        )
+    warnings.warn(
+        f"{at}: its channel's range is [{lower:.9g}, {upper:.9g}] of its limits "
+        f"[{leader.lower:.6g}, {leader.upper:.6g}], where its <mimic> followers stay inside theirs: {names}",
+        CouplingWarning,
+        stacklevel=3,
+    )
+    return lower, upper
 
 
 def _broken(broken: list[SourceMimic], joints: Mapping[str, Joint]) -> str:

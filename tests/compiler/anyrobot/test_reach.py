@@ -119,6 +119,49 @@ def test_broken_mimics_are_named_with_their_fix_and_init_takes_it(tmp_path: Path
     assert model.neq == 4 and model.nu == 4
 
 
+def test_a_follower_leaving_its_limits_narrows_its_channel(tmp_path: Path) -> None:
+    """The Alex's PSYONIC fingers: q2 = 0.7235 + 1.0585 q1 reaches its upper limit 2.6586 at q1 = 1.828 of q1's 2.094.
+    init writes the channel's range where the follower stays inside its limits and says so, and the build takes it
+    (seeded fault: _followers_range returning the leader's limits: the build refuses the spec, 'image [0.72349796,
+    2.94044292] ... leaves its limit')."""
+    follower = '<limit lower="0" upper="2.6586" effort="6" velocity="8"/>'
+    body = (
+        link("p", 0.05, 0.04)
+        + joint("q1", "base", "p", limit='<limit lower="0" upper="2.0943951" effort="6" velocity="8"/>')
+        + link("d", 0.03, 0.04)
+        + joint("q2", "p", "d", limit=follower + '<mimic joint="q1" multiplier="1.05851325" offset="0.72349796"/>')
+    )
+    code, stderr, _ = init(urdf(tmp_path, "psyonic", body))
+    assert code == 0, stderr
+    model = model_of(tmp_path / "psyonic.yaml")
+    spec = yaml.safe_load((tmp_path / "psyonic.coupling.yaml").read_text())
+    lower, upper = spec["channels"][0]["range"]
+    assert lower == 0.0 and 0.72349796 + 1.05851325 * upper == pytest.approx(2.6586, abs=1e-9)
+    assert model.nu == 1 and model.actuator_ctrlrange[0].tolist() == pytest.approx([0.0, upper])
+    said = "joint q1: its channel's range is [0, 1.82813209] of its limits [0, 2.0944]"
+    assert said in stderr and "q2 [0, 2.6586]" in stderr, stderr
+    # coupled_limits: widen, with the spec from the tags: the channel keeps the leader's range, q2's limit widens
+    config = tmp_path / "psyonic.yaml"
+    config.write_text(config.read_text().replace("coupling: psyonic.coupling.yaml", "coupled_limits: widen"))
+    model = model_of(config)
+    assert model.actuator_ctrlrange[0].tolist() == [0.0, 2.0943951]
+    assert model.jnt_range[model.joint("q2").id][1] == pytest.approx(0.72349796 + 1.05851325 * 2.0943951)
+
+
+def test_followers_that_leave_their_leader_no_range_are_refused(tmp_path: Path) -> None:
+    """A follower whose limits the mimic line never meets inside the leader's range: one line naming both and the
+    joints.NAME keys (seeded fault: the emptiness check left out: init exits 0, writing a channel of range [5, 1.5])."""
+    body = (
+        link("p", 0.05, 0.04)
+        + joint("q1", "base", "p")
+        + link("d", 0.03, 0.04)
+        + joint("q2", "p", "d", limit='<limit lower="5" upper="6" effort="6" velocity="8"/><mimic joint="q1"/>')
+    )
+    code, stderr, _ = init(urdf(tmp_path, "stuck", body))
+    assert code == 2 and "joint q1: it leads <mimic> joints that leave it no range" in stderr, stderr
+    assert "q2 [5, 6]" in stderr and "joints.NAME.lower" in stderr
+
+
 def test_a_continuous_joint_gets_a_servo_without_limits(tmp_path: Path) -> None:
     """TIAGo's wheels: a continuous joint's servo takes any angle (ctrllimited false; home's ctrl unclamped) (seeded
     fault: Actuator.limited always true: 'an actuated joint needs lower < upper')."""
