@@ -2,13 +2,16 @@
 
 One self-contained layer: every link a rigid body (``UsdPhysics``) at its place in the zero pose, with its mass,
 centre of mass and principal inertia; its visual meshes and its collision hulls (convex, purpose ``guide``) inline;
-revolute and fixed joints with their limits; an angular drive on every servo with the MJCF's gains (kp, and the kv
-MuJoCo derives from ``dampratio``: the damping probe's result); and each coupled joint as a mimic of its channel in
-both schemas that read one: ``NewtonMimicAPI`` (Newton: ``joint = coef0 + coef1 * leader``, coef0 in degrees) and
-PhysX's ``PhysxMimicJointAPI:rot?`` (Isaac: ``joint + gearing * leader + offset = 0``, offset in radians).
+revolute (continuous: without limits), prismatic and fixed joints with their limits; an angular (linear) drive on
+every servo with the MJCF's gains (kp, and the kv MuJoCo derives from ``dampratio``: the damping probe's result); and
+each coupled joint as a mimic of its channel in both schemas that read one: ``NewtonMimicAPI`` (Newton: ``joint =
+coef0 + coef1 * leader``, coef0 in degrees or metres) and PhysX's ``PhysxMimicJointAPI:rot?`` (``trans?`` for a
+prismatic joint; Isaac: ``joint + gearing * leader + offset = 0``, offset in radians or metres).
 
-USD states angles in degrees: limits, drive gains (per degree), damping and velocity limits are converted here with
-one scalar factor each. Schema attributes are float32 where the schema says so (joint frames, masses, inertias).
+USD states angles in degrees and lengths in the stage's unit (metres here): a revolute joint's limits, drive gains
+(per degree), damping and velocity limits are converted with one scalar factor each (``unit``), a prismatic
+joint's are written as they are. Schema attributes are float32 where the schema says so (joint frames, masses,
+inertias).
 """
 
 from __future__ import annotations
@@ -231,14 +234,20 @@ def _bind_material(stage: Usd.Stage, path: Sdf.Path, link: Link, materials: dict
         binding.Bind(materials[(link.contact.mu,)], UsdShade.Tokens.weakerThanDescendants, "physics")
 
 
+def unit(joint: Joint) -> float:
+    """USD's unit of the joint's position per IR unit: degrees per radian, or metres per metre (prismatic)."""
+    return 1.0 if joint.type == "prismatic" else DEG
+
+
 def _joint_prim(stage: Usd.Stage, path: Sdf.Path, joint: Joint, axis: str) -> Usd.Prim:
     if not joint.movable:
         return UsdPhysics.FixedJoint.Define(stage, path).GetPrim()
-    usd_joint = UsdPhysics.RevoluteJoint.Define(stage, path)
+    kind = UsdPhysics.PrismaticJoint if joint.type == "prismatic" else UsdPhysics.RevoluteJoint
+    usd_joint = kind.Define(stage, path)
     usd_joint.CreateAxisAttr(axis)
     if joint.type != "continuous":
-        usd_joint.CreateLowerLimitAttr(float(joint.lower * DEG))
-        usd_joint.CreateUpperLimitAttr(float(joint.upper * DEG))
+        usd_joint.CreateLowerLimitAttr(float(joint.lower * unit(joint)))
+        usd_joint.CreateUpperLimitAttr(float(joint.upper * unit(joint)))
     return usd_joint.GetPrim()
 
 
@@ -262,40 +271,49 @@ def _joint(stage: Usd.Stage, root: Sdf.Path, robot: Robot, joint: Joint, poses: 
     # A parent that is no body (the massless root) is the world: the frame is the child's pose in the root's.
     _frames(usd_joint, pose_matrix(joint.origin) if parent_is_body else poses[joint.child], to_child)
     if joint.movable:
-        newton = prim
+        newton, per = prim, unit(joint)
         newton.AddAppliedSchema("NewtonJointAPI")
         newton.CreateAttribute("newton:armature", Sdf.ValueTypeNames.Float).Set(float(joint.armature))
-        newton.CreateAttribute("newton:damping", Sdf.ValueTypeNames.Float).Set(float(joint.damping / DEG))
+        newton.CreateAttribute("newton:damping", Sdf.ValueTypeNames.Float).Set(float(joint.damping / per))
         newton.CreateAttribute("newton:friction", Sdf.ValueTypeNames.Float).Set(float(joint.friction))
-        newton.CreateAttribute("newton:velocityLimit", Sdf.ValueTypeNames.Float).Set(float(joint.velocity * DEG))
+        newton.CreateAttribute("newton:velocityLimit", Sdf.ValueTypeNames.Float).Set(float(joint.velocity * per))
         newton.AddAppliedSchema("PhysxJointAPI")
         newton.CreateAttribute("physxJoint:armature", Sdf.ValueTypeNames.Float).Set(float(joint.armature))
         newton.CreateAttribute("physxJoint:jointFriction", Sdf.ValueTypeNames.Float).Set(float(joint.friction))
-        newton.CreateAttribute("physxJoint:maxJointVelocity", Sdf.ValueTypeNames.Float).Set(float(joint.velocity * DEG))
+        newton.CreateAttribute("physxJoint:maxJointVelocity", Sdf.ValueTypeNames.Float).Set(float(joint.velocity * per))
     return prim
 
 
-def _drive(prim: Usd.Prim, kp: float, kv: float, effort: float) -> None:
-    """A position servo: torque = kp (target - q) - kv qdot, limited to the effort (gains per degree)."""
-    drive = UsdPhysics.DriveAPI.Apply(prim, UsdPhysics.Tokens.angular)
+def _drive(prim: Usd.Prim, joint: Joint, kp: float, kv: float, effort: float) -> None:
+    """A position servo: force = kp (target - q) - kv qdot, limited to the effort (gains per degree or metre)."""
+    linear = joint.type == "prismatic"
+    drive = UsdPhysics.DriveAPI.Apply(prim, UsdPhysics.Tokens.linear if linear else UsdPhysics.Tokens.angular)
     drive.CreateTypeAttr(UsdPhysics.Tokens.force)
-    drive.CreateStiffnessAttr(float(kp / DEG))
-    drive.CreateDampingAttr(float(kv / DEG))
+    drive.CreateStiffnessAttr(float(kp / unit(joint)))
+    drive.CreateDampingAttr(float(kv / unit(joint)))
     drive.CreateMaxForceAttr(float(effort))
     drive.CreateTargetPositionAttr(0.0)
 
 
-def _mimic(prim: Usd.Prim, leader: Sdf.Path, axis: str, offset: float, multiplier: float) -> None:
-    """joint = offset + multiplier * leader, in Newton's schema and in PhysX's (the same line, its own signs)."""
+def _dof(joint: Joint) -> str:
+    """PhysX's name of a single-axis joint's degree of freedom (a mimic's instance and its leader's axis)."""
+    return f"{'trans' if joint.type == 'prismatic' else 'rot'}{joint_axis(joint)[0]}"
+
+
+def _mimic(prim: Usd.Prim, leader: Sdf.Path, joints: tuple[Joint, Joint], offset: float, multiplier: float) -> None:
+    """joint = offset + multiplier * leader, in Newton's schema and in PhysX's (the same line, its own signs): the
+    offset in the follower's unit, the ratio in joint coordinates (radians, metres) in both. ``joints``: the
+    follower and its leader."""
+    joint, lead = joints
     prim.AddAppliedSchema("NewtonMimicAPI")
     prim.CreateAttribute("newton:mimicEnabled", Sdf.ValueTypeNames.Bool).Set(True)
     prim.CreateRelationship("newton:mimicJoint").SetTargets([leader])
-    prim.CreateAttribute("newton:mimicCoef0", Sdf.ValueTypeNames.Float).Set(float(offset * DEG))
+    prim.CreateAttribute("newton:mimicCoef0", Sdf.ValueTypeNames.Float).Set(float(offset * unit(joint)))
     prim.CreateAttribute("newton:mimicCoef1", Sdf.ValueTypeNames.Float).Set(float(multiplier))
-    instance = f"rot{axis}"
+    instance = _dof(joint)
     prim.AddAppliedSchema(f"PhysxMimicJointAPI:{instance}")
     prim.CreateRelationship(f"physxMimicJoint:{instance}:referenceJoint").SetTargets([leader])
-    prim.CreateAttribute(f"physxMimicJoint:{instance}:referenceJointAxis", Sdf.ValueTypeNames.Token).Set(instance)
+    prim.CreateAttribute(f"physxMimicJoint:{instance}:referenceJointAxis", Sdf.ValueTypeNames.Token).Set(_dof(lead))
     prim.CreateAttribute(f"physxMimicJoint:{instance}:gearing", Sdf.ValueTypeNames.Float).Set(float(-multiplier))
     prim.CreateAttribute(f"physxMimicJoint:{instance}:offset", Sdf.ValueTypeNames.Float).Set(0.0 - offset)
 
@@ -331,12 +349,12 @@ def export_usd(robot: Robot, assets: Assets, damping: dict[str, float]) -> bytes
     UsdGeom.Scope.Define(stage, root.AppendChild("joints"))
     prims = {joint.name: _joint(stage, root, robot, joint, poses) for joint in robot.joints}
     for actuator in robot.actuators:
-        _drive(prims[actuator.joint], actuator.kp, damping[actuator.name], actuator.effort)
+        _drive(prims[actuator.joint], robot.joint(actuator.joint), actuator.kp, damping[actuator.name], actuator.effort)
     for joint in robot.joints:
         if joint.mimic is not None:
             offset, multiplier = mimic_line(robot, joint)
-            axis = joint_axis(joint)[0]
-            _mimic(prims[joint.name], prims[joint.mimic.joint].GetPath(), axis, offset, multiplier)
+            leader = robot.joint(joint.mimic.joint)
+            _mimic(prims[joint.name], prims[leader.name].GetPath(), (joint, leader), offset, multiplier)
     _filtered_pairs(stage, root, robot)
     layer.documentation = f"{robot.name}: generated by svhdesc from one source; edit the sources, not this file."
     return layer.ExportToString().encode()

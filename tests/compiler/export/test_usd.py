@@ -9,6 +9,7 @@ principal axes left unrotated (``quat_from_matrix(axes)`` -> identity)."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mujoco
 import newton_usd_schemas  # noqa: F401  registers NewtonMimicAPI with usd-core
@@ -18,7 +19,7 @@ from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
 import svhdesc
 from svhdesc.compiler.export.usd import DEG
-from tests.support import VARIANTS
+from tests.support import VARIANTS, compiled_variant, run_cli
 
 F32 = 1e-6  # relative: the schema's float32 attributes
 
@@ -164,3 +165,103 @@ def test_principal_axes_of_equal_moments_do_not_turn_with_the_last_bits() -> Non
     for ulps in (1, 4, 16):
         nudged = tuple(v * (1.0 + ulps * 2.2e-16) if i % 2 else v for i, v in enumerate(flat))
         assert np.allclose(principal_axes(nudged)[1], axes, rtol=0, atol=1e-12), ulps
+
+
+def _box_link(name: str) -> str:
+    return (
+        f'<link name="{name}"><inertial><origin xyz="0 0 0.05"/><mass value="0.5"/>'
+        '<inertia ixx="0.001" iyy="0.001" izz="0.0005" ixy="0" ixz="0" iyz="0"/></inertial>'
+        f'<visual><origin xyz="0 0 0.05"/><geometry><box size="0.04 0.04 0.1"/></geometry></visual></link>'
+    )
+
+
+def _kind_joint(name: str, kind: str, parent: str, child: str, axis: str, limit: str, mimic: str = "") -> str:
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="0 0 0.1"/><axis xyz="{axis}"/>{limit}{mimic}</joint>'
+    )
+
+
+# A slide with a sliding follower, a hinge with a follower on another axis, and a wheel: every kind of joint a
+# third-party robot brings (the Panda's fingers, TIAGo's wheels), each through the USD as MuJoCo compiles the MJCF.
+KINDS = (
+    '<robot name="kinds"><link name="base"/>'
+    + "".join(_box_link(n) for n in ("s", "s2", "h", "h2", "w"))
+    + _kind_joint(
+        "slide", "prismatic", "base", "s", "0 0 1", '<limit lower="-0.1" upper="0.2" effort="20" velocity="0.5"/>'
+    )
+    + _kind_joint(
+        "slide2",
+        "prismatic",
+        "s",
+        "s2",
+        "1 0 0",
+        '<limit lower="-0.1" upper="0.2" effort="20" velocity="0.5"/>',
+        '<mimic joint="slide" multiplier="0.5" offset="0.01"/>',
+    )
+    + _kind_joint(
+        "hinge", "revolute", "base", "h", "0 1 0", '<limit lower="-1.5" upper="1.5" effort="5" velocity="2"/>'
+    )
+    + _kind_joint(
+        "hinge2",
+        "revolute",
+        "h",
+        "h2",
+        "1 0 0",
+        '<limit lower="-3.2" upper="3.2" effort="5" velocity="2"/>',
+        '<mimic joint="hinge" multiplier="2" offset="0.1"/>',
+    )
+    + _kind_joint("wheel", "continuous", "base", "w", "0 0 1", '<limit effort="5" velocity="3"/>')
+    + "</robot>"
+)
+
+
+def test_prismatic_and_continuous_joints_and_mimics_of_both_kinds(tmp_path: Path) -> None:
+    """Seeded faults, each failing here: a prismatic joint written as a revolute one (as the exporter did: a Panda
+    finger's 0.04 m of travel turned 0.04 rad); a slide's limits and gains converted per degree (``unit`` always
+    DEG); a slide's drive angular; PhysX's referenceJointAxis the follower's own axis (transX for a leader sliding
+    along Z)."""
+    from pxr import Sdf
+
+    from svhdesc.compiler.export.mjcf import export_mjcf
+    from svhdesc.compiler.export.usd import export_usd
+
+    source, config = tmp_path / "kinds.urdf", tmp_path / "kinds.yaml"
+    source.write_text(KINDS)
+    assert run_cli("init", str(source), "--out", str(config), in_process=True).returncode == 0
+    compiled = compiled_variant(config, tmp_path / "hulls")[0]
+    robot = compiled.robot
+    model = mujoco.MjModel.from_xml_string(export_mjcf(robot).decode())
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    layer.ImportFromString(export_usd(robot, compiled.assets, {a.name: 2.0 for a in robot.actuators}).decode())
+    stage = Usd.Stage.Open(layer)
+    parsed = UsdPhysics.UsdPhysicsLoadStageFromPrimRange(stage, ["/"])
+    slides = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE]
+    assert len(parsed[UsdPhysics.ObjectType.PrismaticJoint][0]) == len(slides) == 2
+    assert len(parsed[UsdPhysics.ObjectType.RevoluteJoint][0]) == model.njnt - len(slides) == 3
+    joints = _joints(stage)
+    for j in range(model.njnt):
+        name, per = model.joint(j).name, 1.0 if j in slides else DEG  # USD: metres, degrees
+        usd_joint = (UsdPhysics.PrismaticJoint if j in slides else UsdPhysics.RevoluteJoint)(joints[name])
+        if not model.jnt_limited[j]:
+            assert name == "wheel" and not usd_joint.GetLowerLimitAttr().HasAuthoredValue()
+            continue
+        limits = [usd_joint.GetLowerLimitAttr().Get() / per, usd_joint.GetUpperLimitAttr().Get() / per]
+        assert np.allclose(limits, model.jnt_range[j], atol=1e-6), name
+    for a in range(model.nu):
+        j = model.actuator_trnid[a, 0]
+        name, per = model.joint(j).name, 1.0 if j in slides else DEG
+        drive = UsdPhysics.DriveAPI(joints[name], "linear" if j in slides else "angular")
+        assert joints[name].HasAPI(UsdPhysics.DriveAPI, "linear" if j in slides else "angular"), name
+        assert math.isclose(drive.GetStiffnessAttr().Get() * per, model.actuator_gainprm[a, 0], rel_tol=F32), name
+        assert math.isclose(drive.GetDampingAttr().Get() * per, 2.0, rel_tol=F32)
+        assert math.isclose(drive.GetMaxForceAttr().Get(), model.actuator_forcerange[a, 1], rel_tol=F32)
+    dofs = {"slide2": ("transX", "transZ"), "hinge2": ("rotX", "rotY")}
+    for e in range(model.neq):
+        follower = model.joint(model.eq_obj1id[e]).name
+        prim, (instance, leader_dof) = joints[follower], dofs[follower]
+        assert f"PhysxMimicJointAPI:{instance}" in prim.GetMetadata("apiSchemas").GetAppliedItems()
+        assert prim.GetAttribute(f"physxMimicJoint:{instance}:referenceJointAxis").Get() == leader_dof
+        per = 1.0 if model.eq_obj1id[e] in slides else DEG
+        assert math.isclose(prim.GetAttribute("newton:mimicCoef0").Get() / per, model.eq_data[e, 0], rel_tol=F32)
+        assert math.isclose(prim.GetAttribute("newton:mimicCoef1").Get(), model.eq_data[e, 1], rel_tol=F32)
