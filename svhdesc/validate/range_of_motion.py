@@ -61,24 +61,41 @@ def drive_speed(model: Any, actuator: int) -> float:
     return min(MIN_SPEED, 0.5 * effort / damping)
 
 
-def _stroke(model: Any, data: Any, actuator: int, goal: float, adr: int, tol: float, dofs: np.ndarray) -> None:
-    """Command ``goal`` and step until ``dofs`` are still: near the goal (reached) or, for STALLED s, short of it
-    (blocked, or a servo that cannot carry the load); at most the stroke's time."""
+@dataclass(frozen=True)
+class _Motion:
+    """What a stroke moves: the joint's actuator, its qpos address, the dofs that must be still for it to end, and
+    the bodies that move with it."""
+
+    actuator: int
+    adr: int
+    dofs: np.ndarray
+    bodies: set[int]
+
+
+def _stroke(model: Any, data: Any, motion: _Motion, goal: float, tol: float) -> dict[tuple[str, str], float]:
+    """Command ``goal`` and step until the dofs are still: near the goal (reached) or, for STALLED s, short of it
+    (blocked, or a servo that cannot carry the load); at most the stroke's time. Returns the body pairs the moving
+    bodies touched on the way (sampled as the stillness is), deepest contact each: a joint that scraped past its
+    own robot (TIAGo's arm_left_3_link along the torso, 3 s) and ran out of time is short with nothing in contact
+    at the end."""
     import mujoco
 
-    duration = MAX_TIME + abs(goal - data.qpos[adr]) / drive_speed(model, actuator)
-    data.ctrl[actuator] = goal
-    stalled_since = None
+    duration = MAX_TIME + abs(goal - data.qpos[motion.adr]) / drive_speed(model, motion.actuator)
+    data.ctrl[motion.actuator] = goal
+    stalled_since, touched = None, {}
     for step in range(int(round(duration / model.opt.timestep))):
         mujoco.mj_step(model, data)
         if step % 20:
             continue
-        still = bool(np.all(np.abs(data.qvel[dofs]) < SETTLED_SPEED))
-        if still and abs(data.qpos[adr] - goal) < tol / 4:
-            return
+        for pair, depth in _touching(model, data, motion.bodies).items():
+            touched[pair] = min(touched.get(pair, 0.0), depth)
+        still = bool(np.all(np.abs(data.qvel[motion.dofs]) < SETTLED_SPEED))
+        if still and abs(data.qpos[motion.adr] - goal) < tol / 4:
+            break
         stalled_since = (stalled_since if stalled_since is not None else data.time) if still else None
         if stalled_since is not None and data.time - stalled_since >= STALLED:
-            return
+            break
+    return touched
 
 
 def _touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], float]:
@@ -92,12 +109,18 @@ def _touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], 
     return pairs
 
 
-def _blocking(model: Any, data: Any, moving: set[int], before: set[tuple[str, str]]) -> list[str]:
+def _blocking(
+    model: Any, data: Any, moving: set[int], before: set[tuple[str, str]], touched: dict[tuple[str, str], float]
+) -> list[str]:
     """Body pairs in contact with a body moving with the joint, both bodies moving included: those that were
-    not touching when the stroke began first, deepest first."""
+    not touching when the stroke began first, deepest first. None at the end: the new pairs touched on the way
+    (``touched``), which slowed the joint until its time ran out."""
     pairs = _touching(model, data, moving)
     order = sorted(pairs.items(), key=lambda kv: (kv[0] in before, kv[1]))
-    return [f"{a}/{b}" for (a, b), _ in order]
+    if order:
+        return [f"{a}/{b}" for (a, b), _ in order]
+    crossed = sorted((depth, pair) for pair, depth in touched.items() if pair not in before)
+    return [f"{a}/{b} (on the way)" for _, (a, b) in crossed]
 
 
 def _effort_bound(model: Any, data: Any, joint: int, actuator: int) -> str:
@@ -221,11 +244,12 @@ class _Strokes:
         strokes = (
             (("start", low), ("upper", high), ("lower", low)) if notes is None else (("start", low), ("upper", high))
         )
+        motion = _Motion(actuator, adr, self.hand_dofs if notes is None else dofs, moving)
         for label, goal in strokes:
-            _stroke(model, data, actuator, goal, adr, tol, self.hand_dofs if notes is None else dofs)
+            touched = _stroke(model, data, motion, goal, tol)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                miss = _Miss(name, label, goal, q, (low, high), tol, _blocking(model, data, moving, before))
+                miss = _Miss(name, label, goal, q, (low, high), tol, _blocking(model, data, moving, before, touched))
                 self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))

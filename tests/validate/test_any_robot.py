@@ -4,7 +4,8 @@ tests/data/arm3 (no build, no configuration), each check failing on a seeded fau
 Seeded faults (each an lxml edit of a copy): a post moved into the arm's way (range_of_motion names the pair); a
 coupling that makes two bodies moved by one joint meet (the pair is named although both move); a weak elbow servo
 (gravity_hold fails, range_of_motion says gravity needs all of its rated force); an elbow servo too soft for its
-friction (range_of_motion fails); a slow shoulder (range_of_motion gives it its time); a soft wrist limit
+friction (range_of_motion fails); a slow shoulder (range_of_motion gives it its time), and one slowed by a flap until
+its time runs out (range_of_motion names the pair it touched on the way); a soft wrist limit
 (range_of_motion: through its limit); a keyframe folding the arm into itself (self_collision fails); MuJoCo Warp and
 MJX not importable (batch skipped with the reason, exit 0); MJX's put_model refusing a cylinder-mesh pair (that half
 skipped); gravity 1e12 (load_limits names the joint that ran away); validate.tip_load ignored (the derived 50 N
@@ -128,6 +129,26 @@ def slow_shoulder(tree: etree._ElementTree) -> None:
     """Damping 100 N m s/rad: at its 60 N m the shoulder turns at most 0.6 rad/s (a motor rated so, as `svhdesc
     init` damps the Kinova's 0.63 rad/s joints): 3 rad take over 5 s."""
     tree.find(".//joint[@name='shoulder']").set("damping", "100")
+
+
+def slow_shoulder_under_a_flap(tree: etree._ElementTree) -> None:
+    """The slow shoulder lifts the arm into a flap hinged above it, damped 65 N m s/rad: the arm pushes it aside for
+    about 7 s, then swings free, 0.5 rad short when its stroke's 8 s run out, nothing in contact at the end (TIAGo's
+    arm_left_3_link scraping 3 s along its torso)."""
+    slow_shoulder(tree)
+    flap = etree.SubElement(tree.find("worldbody"), "body", name="flap", pos="0.3 0.12 0.12", gravcomp="1")
+    etree.SubElement(flap, "joint", name="flap", axis="1 0 0", range="-3.1 3.1", damping="65")
+    etree.SubElement(flap, "geom", name="flap", type="box", size="0.1 0.12 0.005", pos="0 -0.12 0", mass="0.2")
+
+
+def test_a_joint_slowed_by_a_contact_on_the_way_names_the_pair(tmp_path: Path) -> None:
+    """Seeded fault: _blocking without the pairs touched on the way: 'shoulder stops at -0.984 of -1.5 going start,
+    nothing in contact and its drive below its force limit: its servo is too soft' fails the check."""
+    motion = only(check_range_of_motion(arm(tmp_path, slow_shoulder_under_a_flap), OPTIONS))
+    shoulder = motion.data["driven"]["shoulder"]
+    assert 0.5 < shoulder["fraction"] < 0.95, shoulder
+    assert shoulder["blocked_by"]["start"][0] in ("link1/flap (on the way)", "link2/flap (on the way)"), shoulder
+    assert motion.status == "pass" and "its range crosses its own robot" in motion.detail, motion.detail
 
 
 def test_slow_drive_is_given_the_time_its_rating_needs(tmp_path: Path) -> None:
