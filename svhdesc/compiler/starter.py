@@ -330,7 +330,7 @@ def _drives(
 def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """The quirks as the config writes them (``--joint``'s, and the renames of joints named like a link), the keys
     given, in the schema's order."""
-    keys = ("rename", "effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
+    keys = ("rename", "type", "effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
     return {name: {k: getattr(q, k) for k in keys if getattr(q, k) is not None} for name, q in quirks.items()}
 
 

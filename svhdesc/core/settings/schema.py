@@ -472,6 +472,8 @@ class JointDynamics(Located):
     mimic: str | None = _field(None, optional(text))
     # its new name, where the source's cannot stand (a joint named like a link, which SDFormat refuses)
     rename: str | None = _field(None, optional(text))
+    # continuous: a revolute joint that turns without end, written without usable limits; fixed: locked at 0
+    type: str | None = _field(None, optional(choice("continuous", "fixed")))
 
 
 def _joint_dynamics(value: Any, at: str) -> JointDynamics:

@@ -8,6 +8,8 @@ joint as the settings say.
 - ``effort``, ``velocity``: the drive's rating where the source gives none (``<limit effort="0">``);
 - ``lower``, ``upper``: the limits where the source's are unusable (inverted, as pybullet's "no limit" convention
   writes them, or absent);
+- ``type: continuous``: a revolute joint that turns without end (a wheel, a rotor) written with no usable limits
+  (centauro's wheels, the iris' rotors at +-1e16); ``type: fixed``: the joint locked at 0;
 - ``rename: NEW``: the joint's name where the source's cannot stand: a joint named like a link (the SO-100's
   ``gripper``), which SDFormat refuses, as its frames share one namespace. ``<mimic>`` tags naming it follow.
 """
@@ -23,6 +25,7 @@ from svhdesc.errors import SvhdescError
 
 DROP = "drop"
 LIMIT_KEYS = ("effort", "velocity", "lower", "upper")
+TYPES = ("continuous", "fixed")  # what joints.NAME.type may make a joint
 
 
 def _value(quirk: Any, key: str) -> Any:
@@ -34,7 +37,7 @@ def apply_joint_quirks(tree: etree._Element, quirks: Mapping[str, Any], where: M
     file:line in the config, for the one error a quirk on no joint of the source gives."""
     joints = {element.get("name"): element for element in tree.findall("joint")}
     for name, quirk in quirks.items():
-        patch = {key: _value(quirk, key) for key in (*LIMIT_KEYS, "mimic", "rename")}
+        patch = {key: _value(quirk, key) for key in (*LIMIT_KEYS, "mimic", "rename", "type")}
         if all(value is None for value in patch.values()):
             continue  # damping and friction only: the actuation stage applies those
         element = joints.get(name)
@@ -48,6 +51,7 @@ def apply_joint_quirks(tree: etree._Element, quirks: Mapping[str, Any], where: M
             for key, value in limits.items():
                 limit.set(key, repr(float(value)))
         _patch_mimic(element, patch["mimic"], name, where)
+        _patch_type(element, patch["type"], name, where)
     for name, quirk in quirks.items():  # last: the other keys name the source's joints
         new = _value(quirk, "rename")
         if new is not None:
@@ -80,6 +84,17 @@ def clashing_names(tree: etree._Element) -> dict[str, str]:
             taken.add(new)
             renames[str(name)] = new
     return renames
+
+
+def _patch_type(element: etree._Element, kind: str | None, name: str, where: Mapping[str, str]) -> None:
+    if kind is None:
+        return
+    if kind == "continuous" and element.get("type") not in ("revolute", "continuous"):
+        raise SvhdescError(
+            f"{where.get(name, 'config')}: joints.{name}.type: continuous: joint {name} is {element.get('type')}, "
+            "not revolute"
+        )
+    element.set("type", kind)
 
 
 def _patch_mimic(element: etree._Element, mimic: str | None, name: str, where: Mapping[str, str]) -> None:

@@ -246,14 +246,7 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
     axis = _floats(axis_element.get("xyz") if axis_element is not None else None, 3, (1.0, 0.0, 0.0), where)
     if kind != "fixed" and math.hypot(*axis) < 1e-9:
         raise SvhdescError(f"{where}: zero joint axis {axis}")
-    try:
-        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
-    except SvhdescError as exc:
-        raise SvhdescError(f"{exc}{_usable_limits(name)}") from None
-    if kind in {"revolute", "prismatic"} and lower > upper:
-        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name)}")
-    if kind in {"revolute", "prismatic"} and lower == upper:  # no range: pybullet reads it as no limit
-        raise SvhdescError(f"{where}: its limits give it no range ({lower:g} .. {upper:g}){_usable_limits(name)}")
+    lower, upper = _limits(limit, kind, name, where)
     effort, velocity = _number(limit, "effort", 0.0, where), _number(limit, "velocity", 0.0, where)
     damping, friction = _number(dynamics, "damping", 0.0, where), _number(dynamics, "friction", 0.0, where)
     for label, value in (("effort", effort), ("velocity", velocity), ("damping", damping), ("friction", friction)):
@@ -276,12 +269,35 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
     )
 
 
-def _usable_limits(joint: str) -> str:
-    """The settings that give a joint usable limits where its source's are not (pybullet writes lower > upper, or
-    +-1e16, for "no limit")."""
+def _limits(limit: etree._Element | None, kind: str, name: str, where: str) -> tuple[float, float]:
+    """A revolute or prismatic joint's usable (lower, upper); a continuous joint has none (URDF ignores any it
+    writes: (0, 0)), a fixed one needs none."""
+    if kind == "continuous":
+        return 0.0, 0.0
+    try:
+        lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
+    except SvhdescError as exc:
+        raise SvhdescError(f"{exc}{_usable_limits(name, kind)}") from None
+    if kind != "fixed" and lower > upper:
+        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name, kind)}")
+    if kind != "fixed" and lower == upper:  # no range: pybullet reads it as no limit
+        raise SvhdescError(f"{where}: its limits give it no range ({lower:g} .. {upper:g}){_usable_limits(name, kind)}")
+    return lower, upper
+
+
+def _usable_limits(joint: str, kind: str) -> str:
+    """The settings that work around a joint's unusable limits (pybullet writes lower > upper, or +-1e16, for "no
+    limit"; centauro's wheels are revolute joints without limits, "actually continuous"): limits of its own, a
+    revolute joint turning without end, or the joint locked."""
+    endless = (
+        f"; a joint that turns without end (a wheel, a rotor): joints.{joint}.type: continuous (--joint "
+        f"{joint}.type=continuous)"
+        if kind == "revolute"
+        else ""
+    )
     return (
         f": give it usable limits with joints.{joint}.lower and .upper in the config (svhdesc init --joint "
-        f"{joint}.lower=L --joint {joint}.upper=U), or make it continuous in the source"
+        f"{joint}.lower=L --joint {joint}.upper=U){endless}; or lock it with joints.{joint}.type: fixed"
     )
 
 
