@@ -269,6 +269,10 @@ def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> 
     )
 
 
+class UnusableLimits(SvhdescError):
+    """A joint's limits that no engine can use; read_urdf names every such joint in one line."""
+
+
 def _limits(limit: etree._Element | None, kind: str, name: str, where: str) -> tuple[float, float]:
     """A revolute or prismatic joint's usable (lower, upper); a continuous joint has none (URDF ignores any it
     writes: (0, 0)), a fixed one needs none."""
@@ -277,11 +281,15 @@ def _limits(limit: etree._Element | None, kind: str, name: str, where: str) -> t
     try:
         lower, upper = _number(limit, "lower", 0.0, where), _number(limit, "upper", 0.0, where)
     except SvhdescError as exc:
-        raise SvhdescError(f"{exc}{_usable_limits(name, kind)}") from None
+        raise UnusableLimits(f"{exc}{_usable_limits(name, kind)}") from None
     if kind != "fixed" and lower > upper:
-        raise SvhdescError(f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name, kind)}")
+        raise UnusableLimits(
+            f"{where}: lower limit {lower} is above the upper limit {upper}{_usable_limits(name, kind)}"
+        )
     if kind != "fixed" and lower == upper:  # no range: pybullet reads it as no limit
-        raise SvhdescError(f"{where}: its limits give it no range ({lower:g} .. {upper:g}){_usable_limits(name, kind)}")
+        raise UnusableLimits(
+            f"{where}: its limits give it no range ({lower:g} .. {upper:g}){_usable_limits(name, kind)}"
+        )
     return lower, upper
 
 
@@ -343,7 +351,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise SvhdescError(f"{locate(files, 'link', dup, source, nth=2)}: duplicate link '{dup}'")
-    joints = []
+    joints, unusable = [], []
     joint_names: set[str] = set()
     for element in root.findall("joint"):
         name = element.get("name")
@@ -353,7 +361,13 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
         if name in joint_names:
             raise SvhdescError(f"{locate(files, 'joint', name, source, nth=2)}: duplicate joint '{name}'")
         joint_names.add(name)
-        joints.append(_joint(element, name, where, names))
+        try:
+            joints.append(_joint(element, name, where, names))
+        except UnusableLimits as exc:
+            unusable.append((exc, name))
+    if unusable:  # one line for all of them (minitaur's eight knees), the first's file:line
+        more = [name for _, name in unusable[1:]]
+        raise SvhdescError(f"{unusable[0][0]}" + (f" (and the same for {', '.join(more)})" if more else ""))
     children = {j.child for j in joints}
     roots = [n for n in names if n not in children]
     if len(roots) != 1:

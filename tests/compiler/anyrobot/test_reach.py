@@ -177,14 +177,16 @@ def test_a_continuous_joint_gets_a_servo_without_limits(tmp_path: Path) -> None:
 
 def test_a_revolute_joint_without_usable_limits_is_made_continuous_or_fixed_by_a_setting(tmp_path: Path) -> None:
     """Centauro's wheels (revolute, no limits: "actually continuous") and the iris' rotors (+-1e16): init's error names
-    joints.NAME.type; with --joint NAME.type=continuous the wheel is driven without limits, with type=fixed it is
-    locked (seeded fault: "type" left out of apply_joint_quirks' patch: the same error again)."""
+    joints.NAME.type, one line for both; with --joint NAME.type=continuous the wheel is driven without limits, with
+    type=fixed it is locked (seeded faults: "type" left out of apply_joint_quirks' patch: the same error again;
+    read_urdf raising at the first joint: the rotor not named)."""
     wheel = joint("wheel", "base", "a", limit='<limit effort="35" velocity="20"/>', z=0.0)
     rotor = joint("rotor", "a", "b", limit='<limit effort="2" lower="-1e+16" upper="1e+16" velocity="9"/>')
     source = urdf(tmp_path, "wheels", link("a", 1.0) + wheel + link("b", 0.1) + rotor)
     code, stderr, _ = init(source)
     assert code == 2 and "its limits give it no range (0 .. 0)" in stderr, stderr
     assert "--joint wheel.type=continuous" in stderr and "joints.wheel.type: fixed" in stderr
+    assert stderr.count("error:") == 1 and stderr.rstrip().endswith("(and the same for rotor)"), stderr
     code, stderr, written = init(source, "--joint", "wheel.type=continuous", "--joint", "rotor.type=continuous")
     assert code == 0, stderr
     assert written["joints"]["wheel"]["type"] == "continuous"
