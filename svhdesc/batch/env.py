@@ -58,7 +58,9 @@ class BatchEnv:
         device: str = "cpu",
         nconmax: int | None = None,
         njmax: int | None = None,
+        batched: Sequence[str] = (),
     ) -> None:
+        """``batched``: model fields (e.g. "geom_friction") that get one value per world, for randomisation."""
         self.wp = require("warp", "svhdesc.batch", "batch")
         self.mjw = require("mujoco_warp", "svhdesc.batch", "batch")
         if nworld < 1:
@@ -78,7 +80,7 @@ class BatchEnv:
         for name in DROPS:
             self._drops |= int(getattr(self.mjw.OverflowType, name, 0))
         with self.wp.ScopedDevice(self.device):
-            self.model = self.mjw.put_model(model)
+            self.model = self.mjw.put_model(model, batch_sizes=dict.fromkeys(batched, nworld))
             self.data = self.mjw.make_data(model, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
         self._graphs: dict[int, Any] = {}
 
@@ -120,13 +122,18 @@ class BatchEnv:
         """Set the servo targets (if given), take ``nstep`` physics steps, then raise on any overflow."""
         if ctrl is not None:
             self.set_ctrl(ctrl)
+        self.advance(nstep)
+        self.check_overflow()
+
+    def advance(self, nstep: int = 1) -> None:
+        """``nstep`` physics steps of every world, nothing copied and no overflow check (``check_overflow``: Warp's
+        flags stay set, so one check after many steps finds any overflow among them)."""
         with self.wp.ScopedDevice(self.device):
             if self.device.is_cuda:
                 self._launch_graph(nstep)
             else:
                 for _ in range(nstep):
                     self.mjw.step(self.model, self.data)
-        self.check_overflow()
 
     def _launch_graph(self, nstep: int) -> None:
         # On a GPU the kernel launches of one step cost more than the physics: replay a captured graph.

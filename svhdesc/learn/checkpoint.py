@@ -1,0 +1,105 @@
+"""Checkpoints and the exported actor: what task they belong to, written atomically, read back with a clear error.
+
+A checkpoint is rsl-rl's (``OnPolicyRunner.save``: models, optimizer, iteration) with svhdesc's ``infos``: the task,
+its observation and action sizes, the env-steps taken. The ONNX actor (rsl-rl's export: normaliser and MLP, input
+``obs``, output ``actions``) carries the same in its metadata, so ``play`` and the deployments refuse a policy of
+another task and need no torch.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from svhdesc.errors import SvhdescError
+from svhdesc.learn.spec import Task
+
+FORMAT = 1
+
+
+def policy_info(task: Task, env: Any, steps: int = 0) -> dict[str, Any]:
+    actor, critic = env.observe()
+    return {
+        "format": FORMAT,
+        "task": task.name,
+        "actor_obs": int(actor.shape[1]),
+        "critic_obs": int(critic.shape[1]),
+        "actions": int(env.num_actions),
+        "actuators": list(env.actuators),
+        "control_hz": task.control_hz,
+        "env_steps": int(steps),
+    }
+
+
+def save_checkpoint(runner: Any, out: Path, task: Task, env: Any, steps: int) -> Path:
+    """``out/model_<iteration>.pt``, written to a temporary file in ``out`` and renamed into place."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"model_{runner.current_learning_iteration}.pt"
+    handle, temporary = tempfile.mkstemp(dir=out, prefix=".model-", suffix=".pt")
+    os.close(handle)
+    try:
+        runner.save(temporary, infos=policy_info(task, env, steps))
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+    return path
+
+
+def read_checkpoint(path: Path, task: Task) -> dict[str, Any]:
+    """The checkpoint's svhdesc infos; an SvhdescError naming the file if it is not a checkpoint of ``task``."""
+    import torch
+
+    if not path.is_file():
+        raise SvhdescError(f"{path}: no such checkpoint")
+    try:
+        saved = torch.load(str(path), weights_only=False, map_location="cpu")
+    except Exception as exc:  # torch raises many kinds for a file that is not a checkpoint
+        raise SvhdescError(f"{path}: not a checkpoint ({type(exc).__name__}: {exc})") from None
+    infos = saved.get("infos") if isinstance(saved, dict) else None
+    if not isinstance(infos, dict) or "task" not in infos:
+        raise SvhdescError(f"{path}: not an svhdesc checkpoint (no task in it)")
+    if infos["task"] != task.name:
+        raise SvhdescError(f"{path}: a checkpoint of task {infos['task']!r}, not of {task.name!r}")
+    return infos
+
+
+def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
+    """The actor as ONNX (rsl-rl's exporter), with the task's infos in the model's metadata, renamed into place."""
+    import onnx
+
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".policy-", suffix=".onnx")
+    os.close(handle)
+    try:
+        runner.export_policy_to_onnx(str(path.parent), Path(temporary).name)
+        model = onnx.load(temporary)
+        entry = model.metadata_props.add()
+        entry.key, entry.value = "svhdesc", json.dumps(policy_info(task, env), sort_keys=True)
+        onnx.save(model, temporary)
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+    return path
+
+
+def onnx_info(path: Path, task: Task) -> dict[str, Any]:
+    """An ONNX actor's svhdesc metadata; an SvhdescError if it is not one of ``task``."""
+    import onnx
+
+    if not path.is_file():
+        raise SvhdescError(f"{path}: no such policy file")
+    try:
+        model = onnx.load(str(path), load_external_data=False)
+    except Exception as exc:
+        raise SvhdescError(f"{path}: not an ONNX model ({type(exc).__name__})") from None
+    meta = {p.key: p.value for p in model.metadata_props}
+    if "svhdesc" not in meta:
+        raise SvhdescError(f"{path}: an ONNX model without svhdesc's metadata (not exported by svhdesc train)")
+    info = json.loads(meta["svhdesc"])
+    if info.get("task") != task.name:
+        raise SvhdescError(f"{path}: a policy of task {info.get('task')!r}, not of {task.name!r}")
+    return info

@@ -1,0 +1,165 @@
+"""The state a task reads and writes, as torch tensors over every world, from either engine.
+
+``WarpPhysics`` keeps everything on the Warp device: each tensor is ``wp.to_torch`` of MuJoCo Warp's own array, so a
+task's observations, rewards and resets never leave the device (no numpy on the hot path). ``CPhysics`` steps the same
+scene in MuJoCo C, one ``MjData`` per world, and exposes stacked copies under the same names: it is how a policy
+trained in the batch runs on the main model (noslip, multi-contact) through the same task code.
+
+Both expose per-world model parameters (``model[field]``, [nworld, ...]) for domain randomisation: writing them
+changes that world's physics from its next step.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from typing import Any, Protocol
+
+import numpy as np
+
+from svhdesc.batch.env import BatchEnv
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+
+# Data fields a task reads (qpos, qvel, ctrl written by the action, xpos/xquat after kinematics, actuator_force).
+STATE_FIELDS = ("qpos", "qvel", "ctrl", "xpos", "xquat", "actuator_force", "time")
+# Model fields a task may randomise per world.
+MODEL_FIELDS = (
+    "geom_friction",
+    "geom_size",
+    "geom_rbound",
+    "geom_aabb",
+    "body_mass",
+    "body_inertia",
+    "body_invweight0",
+    "actuator_gainprm",
+    "actuator_biasprm",
+    "dof_damping",
+    "body_gravcomp",
+)
+
+
+class Physics(Protocol):
+    nworld: int
+    mjm: Any  # the compiled mujoco.MjModel (shared, unrandomised)
+    device: Any  # torch.device
+    state: dict[str, Any]  # STATE_FIELDS -> tensors [nworld, ...]
+    model: dict[str, Any]  # MODEL_FIELDS -> tensors [nworld, ...]
+
+    def step(self, nstep: int) -> None: ...
+
+    def kinematics(self) -> None: ...
+
+    def check_overflow(self) -> None: ...
+
+    def commit_model(self) -> None: ...
+
+
+class WarpPhysics:
+    """``nworld`` worlds on MuJoCo Warp; ``state`` and ``model`` are zero-copy torch views of Warp's arrays."""
+
+    def __init__(self, mjm: Any, nworld: int, device: str, nconmax: int, njmax: int) -> None:
+        torch = require("torch", "svhdesc.learn", "rl")
+        self.batch = BatchEnv(mjm, nworld, device, nconmax, njmax, batched=MODEL_FIELDS)
+        self.wp, self.mjw = self.batch.wp, self.batch.mjw
+        self.nworld, self.mjm = nworld, mjm
+        self.device = torch.device(str(self.batch.device))
+        self.state = {name: self.wp.to_torch(getattr(self.batch.data, name)) for name in STATE_FIELDS}
+        self.model = {name: self.wp.to_torch(getattr(self.batch.model, name)) for name in MODEL_FIELDS}
+
+    @contextlib.contextmanager
+    def _stream(self) -> Iterator[None]:
+        # Warp's launches on torch's current stream: a tensor written by torch is ready for the next kernel.
+        with self.wp.ScopedDevice(self.batch.device):
+            if self.batch.device.is_cuda:
+                with self.wp.ScopedStream(self.wp.stream_from_torch()):
+                    yield
+            else:
+                yield
+
+    def step(self, nstep: int) -> None:
+        with self._stream():
+            self.batch.advance(nstep)
+
+    def kinematics(self) -> None:
+        with self._stream():
+            self.mjw.kinematics(self.batch.model, self.batch.data)
+
+    def check_overflow(self) -> None:
+        self.batch.check_overflow()
+
+    def commit_model(self) -> None:
+        """Nothing to do: ``model`` is Warp's own memory."""
+
+
+class CPhysics:
+    """``nworld`` worlds in MuJoCo C (one MjData each, one model whose randomised parameters are swapped in before
+    each world steps), with the tensors ``WarpPhysics`` has."""
+
+    def __init__(self, mjm: Any, nworld: int) -> None:
+        torch = require("torch", "svhdesc.learn", "rl")
+        mujoco = require("mujoco", "svhdesc.learn", "rl")
+        self._mj = mujoco
+        self.nworld, self.mjm = nworld, mjm
+        self.device = torch.device("cpu")
+        self._datas = [mujoco.MjData(mjm) for _ in range(nworld)]
+        self._state = {name: np.stack([_field(d, name) for d in self._datas]) for name in STATE_FIELDS}
+        # geom_aabb: MuJoCo C's (ngeom, 6) as Warp's (ngeom, 2, 3), centre then half-sizes
+        self._params = {name: np.stack([_param(mjm, name)] * nworld) for name in MODEL_FIELDS}
+        self.state = {name: torch.from_numpy(a) for name, a in self._state.items()}
+        self.model = {name: torch.from_numpy(a) for name, a in self._params.items()}
+
+    def commit_model(self) -> None:
+        """Nothing to do: each world's parameters are swapped into the model as it steps."""
+
+    def _use(self, world: int) -> None:
+        for name, array in self._params.items():
+            target = getattr(self.mjm, name)
+            target[...] = array[world].reshape(target.shape)
+
+    def _run(self, nstep: int, kinematics: bool) -> None:
+        for w, d in enumerate(self._datas):
+            self._use(w)
+            d.qpos[:], d.qvel[:], d.ctrl[:] = self._state["qpos"][w], self._state["qvel"][w], self._state["ctrl"][w]
+            if kinematics:
+                self._mj.mj_kinematics(self.mjm, d)
+            else:
+                self._mj.mj_step(self.mjm, d, nstep)
+            for name, array in self._state.items():
+                array[w] = _field(d, name)
+
+    def step(self, nstep: int) -> None:
+        self._run(nstep, kinematics=False)
+
+    def kinematics(self) -> None:
+        self._run(0, kinematics=True)
+
+    def check_overflow(self) -> None:
+        bad = [w for w, d in enumerate(self._datas) if not np.all(np.isfinite(d.qacc))]
+        if bad:
+            raise SvhdescError(f"MuJoCo C diverged in {len(bad)} of {self.nworld} worlds (first: {bad[0]})")
+
+    def data(self, world: int) -> Any:
+        """World ``world``'s MjData, with its parameters swapped into ``mjm`` (for rendering)."""
+        self._use(world)
+        return self._datas[world]
+
+
+def _field(data: Any, name: str) -> np.ndarray:
+    return np.array(getattr(data, name))
+
+
+def _param(model: Any, name: str) -> np.ndarray:
+    value = np.array(getattr(model, name))
+    return value.reshape(-1, 2, 3) if name == "geom_aabb" else value
+
+
+def make_physics(mjm: Any, nworld: int, device: str, backend: str, nconmax: int, njmax: int) -> Physics:
+    """``backend`` "warp" (``device`` cpu or cuda) or "mujoco" (MuJoCo C, on the CPU)."""
+    if backend == "warp":
+        return WarpPhysics(mjm, nworld, device, nconmax, njmax)
+    if backend == "mujoco":
+        if device != "cpu":
+            raise SvhdescError(f"backend 'mujoco' runs on the CPU, not on device {device!r}")
+        return CPhysics(mjm, nworld)
+    raise SvhdescError(f"unknown physics backend {backend!r} (known: warp, mujoco)")

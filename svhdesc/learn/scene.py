@@ -1,0 +1,94 @@
+"""A task's scene: the variant's built model (its batch model, or the main one), the robot's base placed, the task's
+objects and table added with MjSpec, and the physics step and Warp capacities the task states."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+from svhdesc.learn.spec import Scene, Shape
+
+SOURCES = ("batch", "main")  # the variant's scene_batch.xml (Warp, MJX) or scene.xml (noslip, multi-contact)
+
+
+def scene_file(variant: str, source: str) -> Path:
+    from svhdesc.model import get
+
+    if source not in SOURCES:
+        raise SvhdescError(f"unknown model source {source!r} (known: {', '.join(SOURCES)})")
+    try:
+        built = get(variant)
+    except KeyError as exc:
+        raise SvhdescError(str(exc.args[0])) from None
+    path = built.batch_scene_path if source == "batch" else built.scene_path
+    if not path.is_file():
+        raise SvhdescError(f"{path}: no such scene (rebuild: svhdesc build {variant})")
+    return path
+
+
+def robot_root(spec: Any) -> Any:
+    """The world's child body that carries the robot (the one with joints below it)."""
+    roots = [body for body in spec.worldbody.bodies if _has_joints(body)]
+    if len(roots) != 1:
+        raise SvhdescError(f"expected one robot below the world, found {len(roots)}")
+    return roots[0]
+
+
+def _has_joints(body: Any) -> bool:
+    return bool(body.joints) or any(_has_joints(child) for child in body.bodies)
+
+
+def add_shape(spec: Any, shape: Shape) -> None:
+    mujoco = require("mujoco", "svhdesc.learn", "rl")
+    kinds = {
+        "box": mujoco.mjtGeom.mjGEOM_BOX,
+        "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+    }
+    if shape.kind not in kinds:
+        raise SvhdescError(f"object {shape.name}: unknown shape {shape.kind!r} (known: {', '.join(kinds)})")
+    body = spec.worldbody.add_body(name=shape.name, pos=(0.0, 0.0, -1.0))
+    body.add_freejoint(name=f"{shape.name}_joint")
+    body.add_geom(
+        name=shape.name,
+        type=kinds[shape.kind],
+        size=shape.size,
+        mass=shape.mass,
+        rgba=shape.rgba,
+        contype=1,
+        conaffinity=1,
+        condim=3,
+        friction=(1.0, 0.005, 0.0001),
+    )
+
+
+def compose(scene: Scene, source: str = "batch") -> Any:
+    """The task's compiled ``mujoco.MjModel``."""
+    mujoco = require("mujoco", "svhdesc.learn", "rl")
+    spec = mujoco.MjSpec.from_file(str(scene_file(scene.variant, source)))
+    root = robot_root(spec)
+    root.pos, root.quat = scene.base_pose
+    for shape in scene.objects:
+        add_shape(spec, shape)
+    if scene.table is not None:
+        half, centre = scene.table
+        spec.worldbody.add_geom(
+            name="table",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=half,
+            pos=centre,
+            rgba=(0.55, 0.45, 0.35, 1.0),
+            contype=1,
+            conaffinity=1,
+            friction=(1.0, 0.005, 0.0001),
+        )
+    spec.option.timestep = scene.physics_dt
+    if not scene.contacts:
+        spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    spec.nconmax, spec.njmax = scene.nconmax, scene.njmax
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise SvhdescError(f"task scene of {scene.variant}: {exc}") from None

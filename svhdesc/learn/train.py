@@ -1,0 +1,244 @@
+"""``svhdesc train``: PPO from rsl-rl on a task's environment, with one progress line per iteration.
+
+rsl-rl's ``OnPolicyRunner`` owns the algorithm, the models (observation normalisation inside them), TensorBoard
+logging, checkpoints and multi-GPU training (torch.distributed under ``torchrun``). svhdesc drives its iterations
+itself only to stop on a wall-clock budget and to print one line per iteration instead of rsl-rl's block; each
+iteration is the runner's own: act, step, ``process_env_step``, ``compute_returns``, ``update``, ``logger.log``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from svhdesc.errors import SvhdescError
+from svhdesc.extras import require
+from svhdesc.learn.spec import Task, Training
+
+CHECKPOINT_EVERY = 50  # iterations; and always at the end
+
+
+def ppo_config(training: Training, seed: int = 0) -> dict[str, Any]:
+    """rsl-rl 5's runner configuration for a task's training settings."""
+    return {
+        "seed": seed,
+        "num_steps_per_env": training.steps_per_env,
+        "save_interval": CHECKPOINT_EVERY,
+        "obs_groups": {"actor": ["actor"], "critic": ["critic"]},
+        "algorithm": {
+            "class_name": "PPO",
+            "num_learning_epochs": training.epochs,
+            "num_mini_batches": training.minibatches,
+            "clip_param": 0.2,
+            "gamma": training.gamma,
+            "lam": 0.95,
+            "value_loss_coef": 1.0,
+            "entropy_coef": training.entropy,
+            "learning_rate": training.learning_rate,
+            "max_grad_norm": 1.0,
+            "schedule": "adaptive",
+            "desired_kl": 0.01,
+        },
+        "actor": {
+            "class_name": "MLPModel",
+            "hidden_dims": list(training.hidden),
+            "activation": "elu",
+            "obs_normalization": True,
+            "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": training.init_noise},
+        },
+        "critic": {
+            "class_name": "MLPModel",
+            "hidden_dims": list(training.hidden),
+            "activation": "elu",
+            "obs_normalization": True,
+        },
+    }
+
+
+def make_runner(env: Any, cfg: dict[str, Any], log_dir: Path | None) -> Any:
+    """rsl-rl's OnPolicyRunner; under torchrun on the CPU, torch.distributed with gloo instead of its NCCL."""
+    require("rsl_rl", "svhdesc train", "rl")
+    from rsl_rl.runners import OnPolicyRunner as base
+
+    class Runner(base):  # type: ignore[misc,valid-type]
+        def _configure_multi_gpu(self) -> None:
+            if self.device != "cpu" or int(os.getenv("WORLD_SIZE", "1")) == 1:
+                super()._configure_multi_gpu()
+                return
+            import torch.distributed as dist
+
+            # rsl-rl's own data-parallel scheme (broadcast at start, gradients averaged in buckets), on gloo
+            self.gpu_world_size = int(os.environ["WORLD_SIZE"])
+            self.gpu_local_rank = int(os.getenv("LOCAL_RANK", "0"))
+            self.gpu_global_rank = int(os.getenv("RANK", "0"))
+            self.is_distributed = True
+            self.cfg["multi_gpu"] = {
+                "global_rank": self.gpu_global_rank,
+                "local_rank": self.gpu_local_rank,
+                "world_size": self.gpu_world_size,
+            }
+            if not dist.is_initialized():
+                dist.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=self.gpu_world_size)
+
+    with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints both models' layers
+        return Runner(env, cfg, log_dir=str(log_dir) if log_dir is not None else None, device=str(env.device))
+
+
+@dataclass
+class Progress:
+    iteration: int
+    env_steps: int
+    wall: float
+    steps_per_s: float
+    reward: float
+    success: float | None
+    score: float | None
+    losses: dict[str, float]
+
+
+def iterate(runner: Any, env: Any, obs: Any) -> tuple[Any, dict[str, float], float, float, list[float]]:
+    """One PPO iteration as ``OnPolicyRunner.learn`` runs it: (obs, losses, collect s, learn s, episode returns)."""
+    import torch
+
+    alg, cfg = runner.alg, runner.cfg
+    start = time.perf_counter()
+    with torch.inference_mode():
+        for _ in range(cfg["num_steps_per_env"]):
+            actions = alg.act(obs)
+            obs, rewards, dones, extras = env.step(actions.to(env.device))
+            obs, rewards, dones = obs.to(runner.device), rewards.to(runner.device), dones.to(runner.device)
+            alg.process_env_step(obs, rewards, dones, extras)
+            runner.logger.process_env_step(rewards, dones, extras, None)
+        collect = time.perf_counter() - start
+        alg.compute_returns(obs)
+    start = time.perf_counter()
+    losses = alg.update()
+    return obs, losses, collect, time.perf_counter() - start, list(runner.logger.rewbuffer)
+
+
+def train(
+    task: Task,
+    env: Any,
+    out: Path,
+    minutes: float | None,
+    iterations: int | None,
+    resume: Path | None = None,
+    seed: int = 0,
+    say: Any = print,
+) -> Path:
+    """Train until ``minutes`` of wall time or ``iterations`` (whichever ends first); return the last checkpoint."""
+    torch = require("torch", "svhdesc train", "rl")
+    from svhdesc.learn.checkpoint import export_onnx, read_checkpoint, save_checkpoint
+
+    torch.manual_seed(seed)
+    cfg = ppo_config(task.training, seed)
+    rank = int(os.getenv("RANK", "0"))
+    runner = make_runner(env, cfg, out if rank == 0 else None)
+    if resume is not None:
+        read_checkpoint(resume, task)  # refuses another task's
+        with contextlib.redirect_stdout(io.StringIO()):
+            runner.load(str(resume), map_location=str(env.device))
+        runner.current_learning_iteration += 1
+    runner.logger.init_logging_writer() if rank == 0 else None
+    runner.alg.train_mode()
+    if runner.is_distributed:
+        runner.alg.broadcast_parameters()
+    obs = env.get_observations().to(runner.device)
+    deadline = math.inf if minutes is None else time.monotonic() + 60.0 * minutes
+    limit = math.inf if iterations is None else iterations
+    began, steps, done = time.monotonic(), 0, 0
+    batch = cfg["num_steps_per_env"] * env.num_envs
+    last: Path | None = None
+    while done < limit and time.monotonic() < deadline:
+        it = runner.current_learning_iteration
+        obs, losses, collect, learn, returns = iterate(runner, env, obs)
+        env.physics.check_overflow()
+        steps += batch
+        done += 1
+        episodes = env.stats.read()
+        env.stats.clear()
+        if rank == 0:
+            with contextlib.redirect_stdout(io.StringIO()):  # TensorBoard scalars; its console block is not ours
+                policy = runner.alg.get_policy()
+                runner.logger.log(
+                    it, it - done + 1, it + 1, collect, learn, losses, runner.alg.learning_rate, policy.output_std, None
+                )
+            _scalars(runner.logger.writer, it, episodes)
+            wall = time.monotonic() - began
+            line = progress_line(
+                task, it, steps, wall, batch / (collect + learn), returns, episodes, deadline, limit, done
+            )
+            say(line)
+        if rank == 0 and (it % CHECKPOINT_EVERY == 0 or not (done < limit and time.monotonic() < deadline)):
+            last = save_checkpoint(runner, out, task, env, steps)
+        runner.current_learning_iteration = it + 1
+    if rank == 0:
+        if last is None:
+            last = save_checkpoint(runner, out, task, env, steps)
+        export_onnx(runner, last.parent / "policy.onnx", task, env)
+        if runner.logger.writer is not None:
+            runner.logger.writer.flush()
+    return last if last is not None else out
+
+
+def _scalars(writer: Any, it: int, episodes: dict[str, float]) -> None:
+    if writer is None or not episodes.get("episodes"):
+        return
+    writer.add_scalar("Episode/success", episodes["success"], it)
+    writer.add_scalar("Episode/failure", episodes["failure"], it)
+    writer.add_scalar("Episode/score", episodes["score"], it)
+
+
+def progress_line(
+    task: Task,
+    it: int,
+    steps: int,
+    wall: float,
+    rate: float,
+    returns: list[float],
+    episodes: dict[str, float],
+    deadline: float,
+    limit: float,
+    done: int,
+) -> str:
+    reward = sum(returns) / len(returns) if returns else float("nan")
+    left = []
+    if deadline < math.inf:
+        left.append(max(0.0, deadline - time.monotonic()))
+    if limit < math.inf:
+        left.append(wall / done * (limit - done))
+    eta = min(left) if left else math.nan
+    parts = [
+        f"it {it}",
+        f"env-steps {steps:,}",
+        f"{rate:,.0f} env-steps/s ({rate / task.control_hz:,.1f} sim s/s)",
+        f"return {reward:.3f}",
+    ]
+    if episodes.get("episodes"):
+        parts.append(f"success {episodes['success']:.2f}")
+        if task.score is not None:
+            parts.append(f"{task.score_name} {episodes['score']:.3g}")
+    parts.append(f"ETA {_clock(eta)}")
+    return "  ".join(parts)
+
+
+def _clock(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "?"
+    minutes, secs = divmod(int(round(seconds)), 60)
+    return f"{minutes}m{secs:02d}s"
+
+
+def check_device(device: str) -> None:
+    """``--device cuda`` on a machine without one: an SvhdescError before anything is built or written."""
+    torch = require("torch", "svhdesc train", "rl")
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise SvhdescError(f"device {device!r}: no CUDA GPU on this machine (torch finds none): use --device cpu")
+    if not (device == "cpu" or device.startswith("cuda")):
+        raise SvhdescError(f"device {device!r}: use cpu, cuda or cuda:N")
