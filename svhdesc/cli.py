@@ -474,6 +474,78 @@ def _stage_line(line: str) -> None:
     click.echo(f"  {line}", err=True)
 
 
+@main.command("train")
+@click.argument("task_name", metavar="TASK")
+@click.option("--device", default="cpu", show_default=True, help="cpu, cuda or cuda:N (Warp's device and torch's).")
+@click.option(
+    "--envs", type=int, default=None, help="Worlds stepped together (default: the task's on a GPU, 64 on a CPU)."
+)
+@click.option(
+    "--minutes", type=float, default=None, help="Wall-clock budget; training stops after the iteration that ends it."
+)
+@click.option("--iterations", type=int, default=None, help="PPO iterations at most.")
+@click.option(
+    "--backend",
+    type=click.Choice(["warp", "mujoco"]),
+    default="warp",
+    show_default=True,
+    help="warp: the batch model on MuJoCo Warp, zero-copy; mujoco: the same task in MuJoCo C (CPU development).",
+)
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Run folder (default runs/TASK/<time>).")
+@click.option("--resume", type=click.Path(path_type=Path), default=None, help="Continue from this checkpoint (.pt).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@_friendly
+def train_command(
+    task_name: str,
+    device: str,
+    envs: int | None,
+    minutes: float | None,
+    iterations: int | None,
+    backend: str,
+    out: Path | None,
+    resume: Path | None,
+    seed: int,
+) -> None:
+    """Train TASK with PPO (rsl-rl): one progress line per iteration, TensorBoard logs, checkpoints, policy.onnx.
+
+    Tasks: svh_reach, svh_rotate, ur5_lift (docs/learning.md)."""
+    from svhdesc.learn.cli_run import run_train
+
+    run_train(task_name, device, envs, minutes, iterations, backend, out, resume, seed, say=_say)
+
+
+@main.command("play")
+@click.argument("task_name", metavar="TASK")
+@click.option("--checkpoint", type=click.Path(path_type=Path), required=True, help="policy.onnx or model_N.pt.")
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="PNG: a strip of frames of one episode.")
+@click.option("--frames", type=int, default=6, show_default=True, help="Frames in the strip.")
+@click.option(
+    "--source",
+    type=click.Choice(["main", "batch"]),
+    default="main",
+    show_default=True,
+    help="main: <variant>.xml (noslip, multi-contact); batch: the model the policy trained on.",
+)
+@click.option("--backend", type=click.Choice(["mujoco", "warp"]), default="mujoco", show_default=True)
+@click.option("--episodes", type=int, default=20, show_default=True, help="Episodes for the success figure (0: none).")
+@click.option("--seed", type=int, default=1, show_default=True)
+@_friendly
+def play_command(
+    task_name: str,
+    checkpoint: Path,
+    out: Path | None,
+    frames: int,
+    source: str,
+    backend: str,
+    episodes: int,
+    seed: int,
+) -> None:
+    """Run a trained policy of TASK: its success over EPISODES episodes, and a strip of frames (--out)."""
+    from svhdesc.learn.cli_run import run_play
+
+    run_play(task_name, checkpoint, out, frames, source, backend, episodes, seed, say=_say)
+
+
 @main.command("render")
 @click.argument("variant")
 @click.option("--out", "out_file", type=click.Path(path_type=Path), required=True, help="PNG file to write.")

@@ -31,6 +31,11 @@ EXTRA_OF: dict[str, tuple[str, str]] = {
     "newton_usd_schemas": ("newton-usd-schemas", "engines"),
     "warp": ("warp-lang", "batch"),
     "mujoco_warp": ("mujoco-warp", "batch"),
+    "torch": ("torch", "rl"),
+    "rsl_rl": ("rsl-rl-lib", "rl"),
+    "tensordict": ("tensordict", "rl"),
+    "onnx": ("onnx", "rl"),
+    "onnxruntime": ("onnxruntime", "rl"),
     "jax": ("jax", "batch-mjx"),
     "ompl": ("ompl", "plan"),
     "ruckig": ("ruckig", "plan"),
@@ -43,6 +48,8 @@ class MissingExtra(SvhdescError):
 
 # The extra each CLI command needs as a whole (a command may import several of the modules above).
 COMMAND_EXTRA: dict[str, str] = {
+    "train": "rl",
+    "play": "rl",
     "build": "build",
     "info": "build",
     "validate": "validate",

@@ -152,6 +152,11 @@ def place_floor(model: Any, low: float) -> None:
 
 def draw_png(model: Any, data: Any, camera: Any, out: Path, size: tuple[int, int]) -> None:
     """In a child with MUJOCO_GL set: draw scene (group 0) and visual (group 2) geoms, collision off, to a PNG."""
+    write_png(out, draw_pixels(model, data, camera, size))
+
+
+def draw_pixels(model: Any, data: Any, camera: Any, size: tuple[int, int]) -> Any:
+    """``draw_png``'s picture as an RGB array [height, width, 3]."""
     import mujoco
     import numpy as np
 
@@ -166,10 +171,9 @@ def draw_png(model: Any, data: Any, camera: Any, out: Path, size: tuple[int, int
     renderer = mujoco.Renderer(model, height, width)
     try:
         renderer.update_scene(data, camera=camera, scene_option=option)
-        pixels = np.ascontiguousarray(renderer.render())
+        return np.ascontiguousarray(renderer.render())
     finally:
         renderer.close()
-    write_png(out, pixels)
 
 
 def write_png(path: Path, pixels: Any) -> None:

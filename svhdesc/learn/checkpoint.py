@@ -8,6 +8,8 @@ another task and need no torch.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import tempfile
@@ -21,12 +23,12 @@ FORMAT = 1
 
 
 def policy_info(task: Task, env: Any, steps: int = 0) -> dict[str, Any]:
-    actor, critic = env.observe()
+    actor, critic = env.observation_sizes()
     return {
         "format": FORMAT,
         "task": task.name,
-        "actor_obs": int(actor.shape[1]),
-        "critic_obs": int(critic.shape[1]),
+        "actor_obs": int(actor),
+        "critic_obs": int(critic),
         "actions": int(env.num_actions),
         "actuators": list(env.actuators),
         "control_hz": task.control_hz,
@@ -68,13 +70,32 @@ def read_checkpoint(path: Path, task: Task) -> dict[str, Any]:
 
 
 def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
-    """The actor as ONNX (rsl-rl's exporter), with the task's infos in the model's metadata, renamed into place."""
-    import onnx
+    """The actor as ONNX (rsl-rl's exportable module: normaliser and MLP; input ``obs`` [batch, n], output
+    ``actions``, the batch size free), with the task's infos in the model's metadata, renamed into place."""
+    import logging
+    import warnings
 
+    import onnx
+    import torch
+
+    module = runner.alg.get_policy().as_onnx(verbose=False).to("cpu").eval()
+    dummy = torch.zeros(1, module.input_size)
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".policy-", suffix=".onnx")
     os.close(handle)
+    logging.getLogger("torch.onnx").setLevel(logging.ERROR)  # torchvision's absent operators, not ours
     try:
-        runner.export_policy_to_onnx(str(path.parent), Path(temporary).name)
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):  # its progress lines
+            warnings.simplefilter("ignore")
+            torch.onnx.export(
+                module,
+                (dummy,),
+                temporary,
+                input_names=["obs"],
+                output_names=["actions"],
+                opset_version=18,
+                dynamic_shapes=({0: torch.export.Dim("batch")},),
+                dynamo=True,
+            )
         model = onnx.load(temporary)
         entry = model.metadata_props.add()
         entry.key, entry.value = "svhdesc", json.dumps(policy_info(task, env), sort_keys=True)

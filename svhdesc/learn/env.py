@@ -287,6 +287,10 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         critic = torch.cat([_flat(t.fn(self)) for t in self.task.critic], dim=-1)
         return actor, critic
 
+    def observation_sizes(self) -> tuple[int, int]:
+        """(actor, critic) observation widths, computed without drawing noise."""
+        return tuple(sum(_flat(t.fn(self)).shape[1] for t in terms) for terms in (self.task.actor, self.task.critic))
+
     def _noisy(self, term: Obs, scale: float) -> torch.Tensor:
         value = _flat(term.fn(self))
         if term.noise > 0 and scale > 0:

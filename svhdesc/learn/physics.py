@@ -23,6 +23,7 @@ from svhdesc.extras import require
 
 # Data fields a task reads (qpos, qvel, ctrl written by the action, xpos/xquat after kinematics, actuator_force).
 STATE_FIELDS = ("qpos", "qvel", "ctrl", "xpos", "xquat", "actuator_force", "time")
+WRITTEN = ("qpos", "qvel")  # state a task's reset writes (ctrl is written every step)
 # Model fields a task may randomise per world.
 MODEL_FIELDS = (
     "geom_friction",
@@ -94,7 +95,8 @@ class WarpPhysics:
 
 class CPhysics:
     """``nworld`` worlds in MuJoCo C (one MjData each, one model whose randomised parameters are swapped in before
-    each world steps), with the tensors ``WarpPhysics`` has."""
+    each world steps), with the float32 tensors ``WarpPhysics`` has. Each MjData keeps its state in double
+    precision: a world's qpos or qvel is written back from the tensors only where a task changed them."""
 
     def __init__(self, mjm: Any, nworld: int) -> None:
         torch = require("torch", "svhdesc.learn", "rl")
@@ -104,6 +106,7 @@ class CPhysics:
         self.device = torch.device("cpu")
         self._datas = [mujoco.MjData(mjm) for _ in range(nworld)]
         self._state = {name: np.stack([_field(d, name) for d in self._datas]) for name in STATE_FIELDS}
+        self._read = {name: self._state[name].copy() for name in WRITTEN}  # as last read from MjData
         # geom_aabb: MuJoCo C's (ngeom, 6) as Warp's (ngeom, 2, 3), centre then half-sizes
         self._params = {name: np.stack([_param(mjm, name)] * nworld) for name in MODEL_FIELDS}
         self.state = {name: torch.from_numpy(a) for name, a in self._state.items()}
@@ -120,13 +123,18 @@ class CPhysics:
     def _run(self, nstep: int, kinematics: bool) -> None:
         for w, d in enumerate(self._datas):
             self._use(w)
-            d.qpos[:], d.qvel[:], d.ctrl[:] = self._state["qpos"][w], self._state["qvel"][w], self._state["ctrl"][w]
+            for name in WRITTEN:
+                if not np.array_equal(self._state[name][w], self._read[name][w]):
+                    getattr(d, name)[:] = self._state[name][w]
+            d.ctrl[:] = self._state["ctrl"][w]
             if kinematics:
                 self._mj.mj_kinematics(self.mjm, d)
             else:
                 self._mj.mj_step(self.mjm, d, nstep)
             for name, array in self._state.items():
                 array[w] = _field(d, name)
+            for name in WRITTEN:
+                self._read[name][w] = self._state[name][w]
 
     def step(self, nstep: int) -> None:
         self._run(nstep, kinematics=False)
@@ -146,11 +154,11 @@ class CPhysics:
 
 
 def _field(data: Any, name: str) -> np.ndarray:
-    return np.array(getattr(data, name))
+    return np.array(getattr(data, name), dtype=np.float32)
 
 
 def _param(model: Any, name: str) -> np.ndarray:
-    value = np.array(getattr(model, name))
+    value = np.array(getattr(model, name), dtype=np.float32)
     return value.reshape(-1, 2, 3) if name == "geom_aabb" else value
 
 

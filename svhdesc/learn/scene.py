@@ -64,8 +64,44 @@ def add_shape(spec: Any, shape: Shape) -> None:
     )
 
 
+def add_table(spec: Any, half: tuple[float, float, float], centre: tuple[float, float, float]) -> None:
+    """A table: a box to see, and a plane at its top to collide with. MuJoCo's box-box and primitive-box contacts
+    give one point where the batch model's ``multiccd`` is off, and a cylinder standing on one point tips over; a
+    plane gives every primitive its full contact patch."""
+    mujoco = require("mujoco", "svhdesc.learn", "rl")
+    top = (centre[0], centre[1], centre[2] + half[2])
+    spec.worldbody.add_geom(
+        name="table",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=half,
+        pos=centre,
+        rgba=(0.55, 0.45, 0.35, 1.0),
+        contype=0,
+        conaffinity=0,
+    )
+    spec.worldbody.add_geom(
+        name="table_top",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=(half[0], half[1], 0.01),
+        pos=top,
+        rgba=(0.0, 0.0, 0.0, 0.0),
+        contype=1,
+        conaffinity=1,
+        friction=(1.0, 0.005, 0.0001),
+    )
+
+
 def compose(scene: Scene, source: str = "batch") -> Any:
     """The task's compiled ``mujoco.MjModel``."""
+    spec = compose_spec(scene, source)
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise SvhdescError(f"task scene of {scene.variant}: {exc}") from None
+
+
+def compose_spec(scene: Scene, source: str = "batch") -> Any:
+    """The task's ``mujoco.MjSpec``, not yet compiled."""
     mujoco = require("mujoco", "svhdesc.learn", "rl")
     spec = mujoco.MjSpec.from_file(str(scene_file(scene.variant, source)))
     root = robot_root(spec)
@@ -73,22 +109,9 @@ def compose(scene: Scene, source: str = "batch") -> Any:
     for shape in scene.objects:
         add_shape(spec, shape)
     if scene.table is not None:
-        half, centre = scene.table
-        spec.worldbody.add_geom(
-            name="table",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=half,
-            pos=centre,
-            rgba=(0.55, 0.45, 0.35, 1.0),
-            contype=1,
-            conaffinity=1,
-            friction=(1.0, 0.005, 0.0001),
-        )
+        add_table(spec, *scene.table)
     spec.option.timestep = scene.physics_dt
     if not scene.contacts:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     spec.nconmax, spec.njmax = scene.nconmax, scene.njmax
-    try:
-        return spec.compile()
-    except ValueError as exc:
-        raise SvhdescError(f"task scene of {scene.variant}: {exc}") from None
+    return spec

@@ -145,7 +145,9 @@ def train(
         with contextlib.redirect_stdout(io.StringIO()):
             runner.load(str(resume), map_location=str(env.device))
         runner.current_learning_iteration += 1
-    runner.logger.init_logging_writer() if rank == 0 else None
+    if rank == 0:
+        with contextlib.redirect_stdout(io.StringIO()):  # "Storing git diff ...": rsl-rl's, not a progress line
+            runner.logger.init_logging_writer()
     runner.alg.train_mode()
     if runner.is_distributed:
         runner.alg.broadcast_parameters()
@@ -207,7 +209,7 @@ def progress_line(
     limit: float,
     done: int,
 ) -> str:
-    reward = sum(returns) / len(returns) if returns else float("nan")
+    reward = f"{sum(returns) / len(returns):.3f}" if returns else "-"
     left = []
     if deadline < math.inf:
         left.append(max(0.0, deadline - time.monotonic()))
@@ -218,7 +220,7 @@ def progress_line(
         f"it {it}",
         f"env-steps {steps:,}",
         f"{rate:,.0f} env-steps/s ({rate / task.control_hz:,.1f} sim s/s)",
-        f"return {reward:.3f}",
+        f"return {reward}",
     ]
     if episodes.get("episodes"):
         parts.append(f"success {episodes['success']:.2f}")

@@ -151,5 +151,6 @@ TASK = Task(
     ),
     training=Training(steps_per_env=24, hidden=(512, 256, 128), learning_rate=1e-3, entropy=0.005, envs=8192),
     score=_mean_rate,
+    camera=((0.015, -0.085, 0.13), 0.3, 120.0, -35.0),
     score_name="yaw rate (rad/s)",
 )

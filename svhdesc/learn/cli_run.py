@@ -1,0 +1,139 @@
+"""``svhdesc train`` and ``svhdesc play``: arguments checked before anything is built or written."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from svhdesc.errors import SvhdescError
+from svhdesc.learn.spec import Task
+from svhdesc.learn.tasks import task as find_task
+
+CPU_ENVS = 64  # the default --envs on the CPU
+
+
+def _envs(task: Task, envs: int | None, device: str) -> int:
+    count = envs if envs is not None else (task.training.envs if device.startswith("cuda") else CPU_ENVS)
+    if count < 1:
+        raise SvhdescError(f"--envs must be at least 1, not {count}")
+    return count
+
+
+def _out(task: Task, out: Path | None, resume: Path | None) -> Path:
+    if resume is not None:
+        return out if out is not None else resume.parent
+    if out is None:
+        return Path("runs") / task.name / time.strftime("%Y%m%d-%H%M%S")
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise SvhdescError(
+            f"{out}: exists and is not an empty folder (a new run needs its own; --resume continues one)"
+        )
+    return out
+
+
+def run_train(
+    task_name: str,
+    device: str,
+    envs: int | None,
+    minutes: float | None,
+    iterations: int | None,
+    backend: str,
+    out: Path | None,
+    resume: Path | None,
+    seed: int,
+    say: Callable[[str], None],
+) -> Path:
+    from svhdesc.learn.checkpoint import read_checkpoint
+    from svhdesc.learn.env import TaskEnv
+    from svhdesc.learn.train import check_device, train
+
+    task = find_task(task_name)
+    count = _envs(task, envs, device)
+    if minutes is not None and not minutes > 0:
+        raise SvhdescError(f"--minutes must be positive, not {minutes}")
+    if iterations is not None and iterations < 1:
+        raise SvhdescError(f"--iterations must be at least 1, not {iterations}")
+    if minutes is None and iterations is None:
+        raise SvhdescError("say how long to train: --minutes M or --iterations N")
+    check_device(device)
+    if backend == "mujoco" and device != "cpu":
+        raise SvhdescError(f"--backend mujoco runs on the CPU, not on {device!r}")
+    if resume is not None:
+        read_checkpoint(resume, task)
+    folder = _out(task, out, resume)
+    env = TaskEnv(task, count, device=device, backend=backend, seed=seed)
+    say(
+        f"training {task.name} ({task.summary}): {count} worlds on {device} ({backend}), "
+        f"{task.control_hz:g} Hz control, {env.substeps} physics steps of {env.mjm.opt.timestep * 1000:g} ms each; "
+        f"logs and checkpoints in {folder}"
+    )
+    last = train(task, env, folder, minutes, iterations, resume=resume, seed=seed, say=say)
+    say(f"checkpoint {last}; policy {last.parent / 'policy.onnx'}")
+    return last
+
+
+def policy_file(task: Task, checkpoint: Path, scratch: Path) -> Path:
+    """An ONNX actor for ``checkpoint``: itself if it is one, else exported from the rsl-rl checkpoint."""
+    from svhdesc.learn.checkpoint import export_onnx, onnx_info, read_checkpoint
+
+    if checkpoint.suffix == ".onnx":
+        onnx_info(checkpoint, task)
+        return checkpoint
+    read_checkpoint(checkpoint, task)
+    import contextlib
+    import io
+
+    from svhdesc.learn.env import TaskEnv
+    from svhdesc.learn.train import make_runner, ppo_config
+
+    env = TaskEnv(task, 1, device="cpu", backend="mujoco")
+    runner = make_runner(env, ppo_config(task.training), None)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner.load(str(checkpoint), map_location="cpu")
+    return export_onnx(runner, scratch / "policy.onnx", task, env)
+
+
+def run_play(
+    task_name: str,
+    checkpoint: Path,
+    out: Path | None,
+    frames: int,
+    source: str,
+    backend: str,
+    episodes: int,
+    seed: int,
+    say: Callable[[str], None],
+) -> dict[str, Any]:
+    import tempfile
+
+    from svhdesc.learn.env import TaskEnv
+    from svhdesc.learn.play import draw, record, world_params
+    from svhdesc.learn.policy import OnnxPolicy, evaluate
+
+    task = find_task(task_name)
+    if frames < 1 or episodes < 0:
+        raise SvhdescError(f"--frames must be at least 1 and --episodes at least 0 (got {frames}, {episodes})")
+    if out is not None and out.suffix.lower() != ".png":
+        raise SvhdescError(f"{out}: the strip of frames is a PNG file (name it .png)")
+    with tempfile.TemporaryDirectory() as scratch:
+        policy = OnnxPolicy(policy_file(task, checkpoint, Path(scratch)), task)
+        result: dict[str, Any] = {"task": task.name, "source": source, "backend": backend}
+        if episodes:
+            env = TaskEnv(task, min(episodes, CPU_ENVS), device="cpu", backend=backend, source=source, seed=seed)
+            figures = evaluate(env, policy, episodes)
+            result.update(episodes=figures.episodes, success=figures.success, score=figures.score)
+            score = f", {task.score_name} {figures.score:.3g}" if figures.score is not None else ""
+            say(
+                f"{task.name} on the {source} model ({backend}): success {figures.success:.2f} "
+                f"over {figures.episodes} episodes{score}"
+            )
+        if out is not None:
+            env = TaskEnv(task, 1, device="cpu", backend=backend, source=source, seed=seed)
+            params = world_params(env)
+            states, shown = record(env, policy, frames)
+            draw(task, source, params, states, out)
+            result["picture"] = str(out)
+            say(f"{out}: {len(states)} frames of one episode ({shown['steps']} control steps)")
+    return result
