@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -63,7 +64,10 @@ def run_train(
     if resume is not None:
         read_checkpoint(resume, task)
     folder = _out(task, out, resume)
-    env = TaskEnv(task, count, device=device, backend=backend, seed=seed)
+    rank = int(os.getenv("RANK", "0"))  # under torchrun: each rank its own worlds and draws; rank 0 speaks
+    if rank != 0:
+        say = _silent
+    env = TaskEnv(task, count, device=device, backend=backend, seed=seed + rank)
     say(
         f"training {task.name} ({task.summary}): {count} worlds on {device} ({backend}), "
         f"{task.control_hz:g} Hz control, {env.substeps} physics steps of {env.mjm.opt.timestep * 1000:g} ms each; "
@@ -72,6 +76,10 @@ def run_train(
     last = train(task, env, folder, minutes, iterations, resume=resume, seed=seed, say=say)
     say(f"checkpoint {last}; policy {last.parent / 'policy.onnx'}")
     return last
+
+
+def _silent(line: str) -> None:
+    """Ranks other than 0 under torchrun print nothing: rank 0 speaks for the run."""
 
 
 def policy_file(task: Task, checkpoint: Path, scratch: Path) -> Path:

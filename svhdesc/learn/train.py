@@ -155,9 +155,9 @@ def train(
     deadline = math.inf if minutes is None else time.monotonic() + 60.0 * minutes
     limit = math.inf if iterations is None else iterations
     began, steps, done = time.monotonic(), 0, 0
-    batch = cfg["num_steps_per_env"] * env.num_envs
+    batch = cfg["num_steps_per_env"] * env.num_envs * runner.gpu_world_size  # every rank's worlds
     last: Path | None = None
-    while done < limit and time.monotonic() < deadline:
+    while _go_on(runner, done < limit and time.monotonic() < deadline):
         it = runner.current_learning_iteration
         obs, losses, collect, learn, returns = iterate(runner, env, obs)
         env.physics.check_overflow()
@@ -177,16 +177,46 @@ def train(
                 task, it, steps, wall, batch / (collect + learn), returns, episodes, deadline, limit, done
             )
             say(line)
-        if rank == 0 and (it % CHECKPOINT_EVERY == 0 or not (done < limit and time.monotonic() < deadline)):
+        if rank == 0 and it % CHECKPOINT_EVERY == 0:
             last = save_checkpoint(runner, out, task, env, steps)
         runner.current_learning_iteration = it + 1
+    runner.current_learning_iteration -= 1  # the last iteration run: the final checkpoint's number
+    if runner.is_distributed:
+        say(ranks_agree(runner)) if rank == 0 else ranks_agree(runner)
     if rank == 0:
-        if last is None:
+        if last is None or last.name != f"model_{runner.current_learning_iteration}.pt":
             last = save_checkpoint(runner, out, task, env, steps)
         export_onnx(runner, last.parent / "policy.onnx", task, env)
         if runner.logger.writer is not None:
             runner.logger.writer.flush()
     return last if last is not None else out
+
+
+def _go_on(runner: Any, mine: bool) -> bool:
+    """Whether to run another iteration; under torchrun rank 0's clock decides for all (a rank that stopped alone
+    would leave the others waiting in the gradient reduction)."""
+    if not runner.is_distributed:
+        return mine
+    import torch
+    import torch.distributed as dist
+
+    flag = torch.tensor([1 if mine else 0])
+    dist.broadcast(flag, src=0)
+    return bool(flag.item())
+
+
+def ranks_agree(runner: Any) -> str:
+    """rsl-rl keeps the ranks' models equal (one broadcast, then averaged gradients): check it at the end."""
+    import torch
+    import torch.distributed as dist
+
+    params = torch.cat([p.detach().flatten().double() for p in runner.alg.get_policy().parameters()])
+    mine = torch.stack((params.sum(), (params * torch.arange(1, len(params) + 1, dtype=torch.float64)).sum()))
+    everyone = [torch.zeros_like(mine) for _ in range(dist.get_world_size())]
+    dist.all_gather(everyone, mine)
+    if any(not torch.equal(other, everyone[0]) for other in everyone):
+        raise SvhdescError(f"the {len(everyone)} ranks' actors differ after training (checksums {everyone})")
+    return f"actor parameters identical on all {len(everyone)} ranks"
 
 
 def _scalars(writer: Any, it: int, episodes: dict[str, float]) -> None:
