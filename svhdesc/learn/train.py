@@ -13,6 +13,7 @@ import io
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -90,15 +91,17 @@ def make_runner(env: Any, cfg: dict[str, Any], log_dir: Path | None) -> Any:
         return Runner(env, cfg, log_dir=str(log_dir) if log_dir is not None else None, device=str(env.device))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Progress:
+    """One iteration's figures: env-steps so far (every rank's), wall seconds since the start, env-steps/s of the
+    iteration, the returns of the last 100 episodes (rsl-rl's buffer), the episodes ended in it (EpisodeStats)."""
+
     iteration: int
     env_steps: int
     wall: float
     steps_per_s: float
-    reward: float
-    success: float | None
-    score: float | None
+    returns: list[float]
+    episodes: dict[str, float]
     losses: dict[str, float]
 
 
@@ -131,8 +134,10 @@ def train(
     resume: Path | None = None,
     seed: int = 0,
     say: Any = print,
+    on_iteration: Callable[[Progress], None] | None = None,
 ) -> Path:
-    """Train until ``minutes`` of wall time or ``iterations`` (whichever ends first); return the last checkpoint."""
+    """Train until ``minutes`` of wall time or ``iterations`` (whichever ends first); return the last checkpoint.
+    ``on_iteration`` receives each iteration's figures (benchmarks/learn_bench.py draws its curves from them)."""
     torch = require("torch", "svhdesc train", "rl")
     from svhdesc.learn.checkpoint import export_onnx, read_checkpoint, save_checkpoint
 
@@ -173,10 +178,10 @@ def train(
                 )
             _scalars(runner.logger.writer, it, episodes)
             wall = time.monotonic() - began
-            line = progress_line(
-                task, it, steps, wall, batch / (collect + learn), returns, episodes, deadline, limit, done
-            )
-            say(line)
+            rate = batch / (collect + learn)
+            say(progress_line(task, it, steps, wall, rate, returns, episodes, deadline, limit, done))
+            if on_iteration is not None:
+                on_iteration(Progress(it, steps, wall, rate, returns, episodes, losses))
         if rank == 0 and it % CHECKPOINT_EVERY == 0:
             last = save_checkpoint(runner, out, task, env, steps)
         runner.current_learning_iteration = it + 1

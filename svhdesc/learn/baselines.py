@@ -1,0 +1,29 @@
+"""Scripted actors a trained policy is measured against: a finger gait played open loop."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+class Gait:
+    """Action ``amplitude * sin(2 pi frequency t + k * phase)`` on the ``k``-th of ``channels`` (indices into the
+    action), 0 on the others; ``t`` counts control periods of ``1/control_hz`` from the first call, across
+    episodes (a baseline has no notion of them)."""
+
+    def __init__(
+        self, width: int, control_hz: float, channels: Sequence[int], amplitude: float, frequency: float, phase: float
+    ) -> None:
+        self.width, self.dt = width, 1.0 / control_hz
+        self.channels, self.amplitude, self.frequency, self.phase = list(channels), amplitude, frequency, phase
+        self.step = 0
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        t = self.step * self.dt
+        self.step += 1
+        action = np.zeros((obs.shape[0], self.width), dtype=np.float32)
+        for k, channel in enumerate(self.channels):
+            action[:, channel] = self.amplitude * math.sin(2 * math.pi * self.frequency * t + k * self.phase)
+        return action
