@@ -546,6 +546,28 @@ def play_command(
     run_play(task_name, checkpoint, out, frames, source, backend, episodes, seed, say=_say)
 
 
+@main.command("deploy")
+@click.argument("task_name", metavar="TASK")
+@click.option("--policy", type=click.Path(path_type=Path), required=True, help="policy.onnx from svhdesc train.")
+@click.option("--duration", type=float, default=None, help="Simulated seconds the policy acts (default: one episode).")
+@click.option("--seed", type=int, default=1, show_default=True, help="Seed of the task's reset (the start state).")
+@_friendly
+def deploy_command(task_name: str, policy: Path, duration: float | None, seed: int) -> None:
+    """Run TASK's policy through the ROS 2 node as on the real hand (needs .venv-ros2, svhdesc[policy]): the
+    simulation serves the drivers' interfaces and a tracker in real time, as the hand runs; a policy node drives the
+    forward position controllers. Prints the policy node's measure of the episode as one JSON line."""
+    import json
+
+    from svhdesc.learn.deploy import run
+    from svhdesc.learn.tasks import task
+
+    chosen = task(task_name)
+    seconds = duration if duration is not None else chosen.episode_s
+    if not seconds > 0:
+        raise SvhdescError(f"--duration must be positive, not {seconds}")
+    _say(json.dumps(run(chosen, policy, seed, seconds), sort_keys=True))
+
+
 @main.command("render")
 @click.argument("variant")
 @click.option("--out", "out_file", type=click.Path(path_type=Path), required=True, help="PNG file to write.")

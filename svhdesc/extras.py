@@ -50,6 +50,7 @@ class MissingExtra(SvhdescError):
 COMMAND_EXTRA: dict[str, str] = {
     "train": "rl",
     "play": "rl",
+    "deploy": "policy",
     "build": "build",
     "info": "build",
     "validate": "validate",

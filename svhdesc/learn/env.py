@@ -67,7 +67,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         self._cursor = 0
         self._fresh = torch.zeros(num_envs, dtype=torch.bool, device=self.device)  # worlds reset since sense()
         self.stats = EpisodeStats(self.device)
-        self.reset()
+        self.restart()
 
     # -- the model's layout ------------------------------------------------------------------------------------
     def _index(self) -> None:
@@ -200,11 +200,15 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
 
     # -- VecEnv ------------------------------------------------------------------------------------------------------
     def reset(self) -> Any:
+        self.restart()
+        return self.get_observations()
+
+    def restart(self) -> None:
+        """Every world to a new episode (what ``reset`` does, without building rsl-rl's TensorDict)."""
         everyone = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self._reset(everyone)
         self.physics.kinematics()
         self.sense()
-        return self.get_observations()
 
     def _reset(self, mask: torch.Tensor) -> None:
         self._randomise(mask)

@@ -104,6 +104,14 @@ def compose_spec(scene: Scene, source: str = "batch") -> Any:
     """The task's ``mujoco.MjSpec``, not yet compiled."""
     mujoco = require("mujoco", "svhdesc.learn", "rl")
     spec = mujoco.MjSpec.from_file(str(scene_file(scene.variant, source)))
+    dress(spec, scene)
+    return spec
+
+
+def dress(spec: Any, scene: Scene) -> None:
+    """Turn a variant's loaded scene into the task's: the robot's base placed, the objects and the table added, the
+    physics step, contacts and Warp capacities set (what ``svhdesc.sim.Simulation``'s ``edit`` takes, too)."""
+    mujoco = require("mujoco", "svhdesc.learn", "rl")
     root = robot_root(spec)
     root.pos, root.quat = scene.base_pose
     for shape in scene.objects:
@@ -114,4 +122,3 @@ def compose_spec(scene: Scene, source: str = "batch") -> Any:
     if not scene.contacts:
         spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     spec.nconmax, spec.njmax = scene.nconmax, scene.njmax
-    return spec

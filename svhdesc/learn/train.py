@@ -125,6 +125,104 @@ def iterate(runner: Any, env: Any, obs: Any) -> tuple[Any, dict[str, float], flo
     return obs, losses, collect, time.perf_counter() - start, list(runner.logger.rewbuffer)
 
 
+@dataclass(frozen=True)
+class Budget:
+    """When training stops: a wall-clock deadline (monotonic s) and an iteration count, whichever comes first."""
+
+    deadline: float
+    limit: float
+
+    @classmethod
+    def of(cls, minutes: float | None, iterations: int | None) -> Budget:
+        deadline = math.inf if minutes is None else time.monotonic() + 60.0 * minutes
+        return cls(deadline, math.inf if iterations is None else iterations)
+
+    def allows(self, done: int) -> bool:
+        return done < self.limit and time.monotonic() < self.deadline
+
+
+class Session:
+    """One training run: rsl-rl's runner over ``env``, the counters, what rank 0 prints, logs and saves."""
+
+    def __init__(self, task: Task, env: Any, out: Path, seed: int, say: Any, on_iteration: Any) -> None:
+        self.task, self.env, self.out, self.say, self.on_iteration = task, env, out, say, on_iteration
+        self.rank = int(os.getenv("RANK", "0"))
+        self.cfg = ppo_config(task.training, seed)
+        self.runner = make_runner(env, self.cfg, out if self.rank == 0 else None)
+        self.batch = self.cfg["num_steps_per_env"] * env.num_envs * self.runner.gpu_world_size  # every rank's
+        self.began, self.steps, self.done = time.monotonic(), 0, 0
+        self.last: Path | None = None
+
+    def start(self, resume: Path | None) -> None:
+        from svhdesc.learn.checkpoint import read_checkpoint
+
+        runner = self.runner
+        if resume is not None:
+            read_checkpoint(resume, self.task)  # refuses another task's
+            with contextlib.redirect_stdout(io.StringIO()):
+                runner.load(str(resume), map_location=str(self.env.device))
+            runner.current_learning_iteration += 1
+        if self.rank == 0:
+            with contextlib.redirect_stdout(io.StringIO()):  # "Storing git diff ...": rsl-rl's, not a progress line
+                runner.logger.init_logging_writer()
+        runner.alg.train_mode()
+        if runner.is_distributed:
+            runner.alg.broadcast_parameters()
+        self.obs = self.env.get_observations().to(runner.device)
+
+    def iteration(self, budget: Budget) -> None:
+        from svhdesc.learn.checkpoint import save_checkpoint
+
+        runner = self.runner
+        it = runner.current_learning_iteration
+        self.obs, losses, collect, learn, returns = iterate(runner, self.env, self.obs)
+        self.env.physics.check_overflow()
+        self.steps += self.batch
+        self.done += 1
+        episodes = self.env.stats.read()
+        self.env.stats.clear()
+        if self.rank == 0:
+            with contextlib.redirect_stdout(io.StringIO()):  # TensorBoard scalars; its console block is not ours
+                policy = runner.alg.get_policy()
+                runner.logger.log(
+                    it,
+                    it - self.done + 1,
+                    it + 1,
+                    collect,
+                    learn,
+                    losses,
+                    runner.alg.learning_rate,
+                    policy.output_std,
+                    None,
+                )
+            _scalars(runner.logger.writer, it, episodes)
+            wall = time.monotonic() - self.began
+            rate = self.batch / (collect + learn)
+            self.say(progress_line(self.task, it, self.steps, wall, rate, returns, episodes, budget, self.done))
+            if self.on_iteration is not None:
+                self.on_iteration(Progress(it, self.steps, wall, rate, returns, episodes, losses))
+            if it % CHECKPOINT_EVERY == 0:
+                self.last = save_checkpoint(runner, self.out, self.task, self.env, self.steps)
+        runner.current_learning_iteration = it + 1
+
+    def finish(self) -> Path:
+        from svhdesc.learn.checkpoint import export_onnx, save_checkpoint
+
+        runner = self.runner
+        runner.current_learning_iteration -= 1  # the last iteration run: the final checkpoint's number
+        if runner.is_distributed:
+            agreed = ranks_agree(runner)
+            self.say(agreed) if self.rank == 0 else None
+        if self.rank != 0:
+            return self.out
+        if self.last is None or self.last.name != f"model_{runner.current_learning_iteration}.pt":
+            self.last = save_checkpoint(runner, self.out, self.task, self.env, self.steps)
+        export_onnx(runner, self.last.parent / "policy.onnx", self.task, self.env)
+        if runner.logger.writer is not None:
+            runner.logger.writer.flush()
+        return self.last
+
+
 def train(
     task: Task,
     env: Any,
@@ -139,62 +237,13 @@ def train(
     """Train until ``minutes`` of wall time or ``iterations`` (whichever ends first); return the last checkpoint.
     ``on_iteration`` receives each iteration's figures (benchmarks/learn_bench.py draws its curves from them)."""
     torch = require("torch", "svhdesc train", "rl")
-    from svhdesc.learn.checkpoint import export_onnx, read_checkpoint, save_checkpoint
-
     torch.manual_seed(seed)
-    cfg = ppo_config(task.training, seed)
-    rank = int(os.getenv("RANK", "0"))
-    runner = make_runner(env, cfg, out if rank == 0 else None)
-    if resume is not None:
-        read_checkpoint(resume, task)  # refuses another task's
-        with contextlib.redirect_stdout(io.StringIO()):
-            runner.load(str(resume), map_location=str(env.device))
-        runner.current_learning_iteration += 1
-    if rank == 0:
-        with contextlib.redirect_stdout(io.StringIO()):  # "Storing git diff ...": rsl-rl's, not a progress line
-            runner.logger.init_logging_writer()
-    runner.alg.train_mode()
-    if runner.is_distributed:
-        runner.alg.broadcast_parameters()
-    obs = env.get_observations().to(runner.device)
-    deadline = math.inf if minutes is None else time.monotonic() + 60.0 * minutes
-    limit = math.inf if iterations is None else iterations
-    began, steps, done = time.monotonic(), 0, 0
-    batch = cfg["num_steps_per_env"] * env.num_envs * runner.gpu_world_size  # every rank's worlds
-    last: Path | None = None
-    while _go_on(runner, done < limit and time.monotonic() < deadline):
-        it = runner.current_learning_iteration
-        obs, losses, collect, learn, returns = iterate(runner, env, obs)
-        env.physics.check_overflow()
-        steps += batch
-        done += 1
-        episodes = env.stats.read()
-        env.stats.clear()
-        if rank == 0:
-            with contextlib.redirect_stdout(io.StringIO()):  # TensorBoard scalars; its console block is not ours
-                policy = runner.alg.get_policy()
-                runner.logger.log(
-                    it, it - done + 1, it + 1, collect, learn, losses, runner.alg.learning_rate, policy.output_std, None
-                )
-            _scalars(runner.logger.writer, it, episodes)
-            wall = time.monotonic() - began
-            rate = batch / (collect + learn)
-            say(progress_line(task, it, steps, wall, rate, returns, episodes, deadline, limit, done))
-            if on_iteration is not None:
-                on_iteration(Progress(it, steps, wall, rate, returns, episodes, losses))
-        if rank == 0 and it % CHECKPOINT_EVERY == 0:
-            last = save_checkpoint(runner, out, task, env, steps)
-        runner.current_learning_iteration = it + 1
-    runner.current_learning_iteration -= 1  # the last iteration run: the final checkpoint's number
-    if runner.is_distributed:
-        say(ranks_agree(runner)) if rank == 0 else ranks_agree(runner)
-    if rank == 0:
-        if last is None or last.name != f"model_{runner.current_learning_iteration}.pt":
-            last = save_checkpoint(runner, out, task, env, steps)
-        export_onnx(runner, last.parent / "policy.onnx", task, env)
-        if runner.logger.writer is not None:
-            runner.logger.writer.flush()
-    return last if last is not None else out
+    session = Session(task, env, out, seed, say, on_iteration)
+    session.start(resume)
+    budget = Budget.of(minutes, iterations)
+    while _go_on(session.runner, budget.allows(session.done)):
+        session.iteration(budget)
+    return session.finish()
 
 
 def _go_on(runner: Any, mine: bool) -> bool:
@@ -240,16 +289,15 @@ def progress_line(
     rate: float,
     returns: list[float],
     episodes: dict[str, float],
-    deadline: float,
-    limit: float,
+    budget: Budget,
     done: int,
 ) -> str:
     reward = f"{sum(returns) / len(returns):.3f}" if returns else "-"
     left = []
-    if deadline < math.inf:
-        left.append(max(0.0, deadline - time.monotonic()))
-    if limit < math.inf:
-        left.append(wall / done * (limit - done))
+    if budget.deadline < math.inf:
+        left.append(max(0.0, budget.deadline - time.monotonic()))
+    if budget.limit < math.inf:
+        left.append(wall / done * (budget.limit - done))
     eta = min(left) if left else math.nan
     parts = [
         f"it {it}",

@@ -1,0 +1,179 @@
+"""A trained policy driving the ROS 2 node as it would drive the real hand (``svhdesc deploy TASK --policy F``).
+
+Two processes, as on the robot:
+- the simulation (``svhdesc.ros2.node.serve``) on the task's scene built from the main model (noslip,
+  multi-contact), started in the state the task's reset gives for ``--seed``, publishing each object's pose as a
+  tracker would (``/tracked/<object>``, geometry_msgs/PoseStamped) beside the drivers' interfaces;
+- the policy node (``python -m svhdesc.learn.deploy``, rclpy + onnxruntime): it swaps the forward position
+  controllers in for the trajectory controllers (one STRICT ``switch_controller``, then ``list_controllers`` to
+  check), and at the task's control rate (simulated time) builds the actor's observation from ``/joint_states``
+  and the tracker with the task's own terms, runs the ONNX actor and publishes the servo targets on
+  ``/<forward controller>/commands`` (std_msgs/Float64MultiArray, the controller's joint order).
+
+The policy node measures the episode with the task's own ``update``, ``success`` and ``score`` on what it observed
+(object velocities from successive tracker poses) and prints one JSON line at the end.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from svhdesc.errors import SvhdescError
+from svhdesc.learn.spec import Randomisation, Task
+
+SETTLE = 0.2  # s of simulated time the node runs before the policy acts: the controllers come up
+
+
+def nominal(task: Task) -> Task:
+    """The task as deployed: nominal object and servos, and no noise or latency added (the real ones are there)."""
+    return dataclasses.replace(task, randomisation=Randomisation())
+
+
+class Observer:
+    """The task's environment, one world of MuJoCo C on the main model, used only to observe: measured joint
+    positions and tracked poses are written into it, kinematics run, and the task's terms read from it."""
+
+    def __init__(self, task: Task, seed: int) -> None:
+        from svhdesc.learn.env import TaskEnv
+        from svhdesc.model import ros2_joint_name
+
+        self.task = nominal(task)
+        self.env = TaskEnv(self.task, 1, backend="mujoco", source="main", seed=seed)
+        from svhdesc.model import scalar_joints
+
+        m = self.env.mjm
+        self.columns = {ros2_joint_name(m.joint(j).name): int(m.jnt_qposadr[j]) for j in scalar_joints(m)}
+        self.objects = [shape.name for shape in self.task.scene.objects]
+        self._last: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}
+
+    def initial_qpos(self) -> list[float]:
+        return self.env.qpos[0].tolist()
+
+    def write(self, now: float, positions: dict[str, float], poses: dict[str, tuple[list[float], list[float]]]) -> None:
+        """One control period's measurements: joints by ROS 2 name, objects' (position, quaternion w x y z)."""
+        import torch
+
+        env = self.env
+        qpos, qvel = env.qpos[0], env.qvel[0]
+        for name, value in positions.items():
+            if name in self.columns:
+                qpos[self.columns[name]] = value
+        for body, (position, quaternion) in poses.items():
+            qadr, dadr = env.free[body]
+            pos, quat = np.asarray(position), np.asarray(quaternion)
+            qpos[qadr : qadr + 3] = torch.as_tensor(pos)
+            qpos[qadr + 3 : qadr + 7] = torch.as_tensor(quat)
+            qvel[dadr : dadr + 6] = torch.as_tensor(self._velocity(body, now, pos, quat))
+        env.physics.kinematics()
+
+    def _velocity(self, body: str, now: float, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+        """Linear (world) and angular (body frame, as MuJoCo's free joint) velocity from the last two poses."""
+        last = self._last.get(body)
+        self._last[body] = (now, pos, quat)
+        if last is None or now <= last[0]:
+            return np.zeros(6)
+        dt = now - last[0]
+        w0, v0 = last[2][0], last[2][1:]
+        w1, v1 = quat[0], quat[1:]
+        # body-frame rotation from the last orientation to this one: conj(q0) * q1
+        dw = w0 * w1 + v0 @ v1
+        dv = w0 * v1 - w1 * v0 - np.cross(v0, v1)
+        angle = 2.0 * math.atan2(float(np.linalg.norm(dv)), abs(float(dw)))
+        axis = dv / np.linalg.norm(dv) if np.linalg.norm(dv) > 1e-12 else np.zeros(3)
+        return np.concatenate(((pos - last[1]) / dt, axis * np.sign(dw or 1.0) * angle / dt))
+
+    def actor(self) -> np.ndarray:
+        self.env.sense()
+        return self.env.observe()[0].cpu().numpy()
+
+    def acted(self, action: np.ndarray) -> list[float]:
+        """Record the action (the next observation's last action) and return its servo targets."""
+        import torch
+
+        env = self.env
+        env.previous_action, env.action = env.action, torch.as_tensor(action, dtype=torch.float32).reshape(1, -1)
+        env.episode_length_buf += 1
+        if env.task.update is not None:
+            env.task.update(env)
+        return env.targets(env.action)[0].tolist()
+
+    def verdict(self) -> dict[str, Any]:
+        env = self.env
+        result = {
+            "steps": int(env.episode_length_buf[0]),
+            "success": bool(env.task.success(env)[0]),
+            "joints": [round(float(q), 6) for q in env.joint_pos()[0]],  # as the last /joint_states gave them
+        }
+        if env.task.score is not None:
+            result["score"] = float(env.task.score(env)[0])
+            result["score_name"] = env.task.score_name
+        return result
+
+
+def task_simulation(task: Task, seed: int) -> Any:
+    """The ROS 2 node's Simulation: the task's scene on the main model, in the state the task's reset gives."""
+    from svhdesc.learn.scene import dress
+    from svhdesc.sim import Simulation
+
+    deployed = nominal(task)
+    sim = Simulation(task.scene.variant, keyframe=None, edit=lambda spec: dress(spec, deployed.scene))
+    observer = Observer(task, seed)
+    start = observer.initial_qpos()
+    if len(start) != sim.model.nq:
+        raise SvhdescError(f"task {task.name}: the simulation has {sim.model.nq} positions, the task {len(start)}")
+    sim.data.qpos[:] = start
+    targets = observer.env.targets(observer.env.action)[0].tolist()
+    sim.set_targets(dict(zip(observer.env.actuators, targets)))
+    return sim
+
+
+def run(task: Task, policy: Path, seed: int, duration: float) -> dict[str, Any]:
+    """Serve the task's simulation over ROS 2 in real time, as the robot runs, while the policy node drives it for
+    ``duration`` simulated seconds; the policy node's verdict (its JSON line). The node stops when the policy
+    node ends."""
+    from svhdesc.learn.policy import OnnxPolicy
+    from svhdesc.ros2.node import serve
+
+    OnnxPolicy(policy, task)  # a policy of another task fails here, before anything starts
+    sim = task_simulation(task, seed)
+    objects = [shape.name for shape in task.scene.objects]
+    verdict: dict[str, Any] = {}
+
+    def start_policy(node: Any) -> None:
+        command = [sys.executable, "-m", "svhdesc.learn.deploy", task.name, str(policy), str(seed), str(duration)]
+        child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+
+        def wait() -> None:
+            out, _ = child.communicate()
+            lines = [line for line in out.splitlines() if line.startswith("{")]
+            verdict.update(json.loads(lines[-1]) if lines else {"error": f"policy node exited {child.returncode}"})
+            node.stop()
+
+        threading.Thread(target=wait, daemon=True).start()
+
+    serve(sim, track=objects, realtime=True, on_start=start_policy)
+    if "error" in verdict:
+        raise SvhdescError(f"policy node: {verdict['error']}")
+    return verdict
+
+
+def _main() -> int:
+    from svhdesc.learn.ros2_policy import policy_node
+    from svhdesc.learn.tasks import task
+
+    name, policy, seed, duration = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+    print(json.dumps(policy_node(task(name), policy, seed, duration)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main())
