@@ -53,6 +53,7 @@ class Observer:
         m = self.env.mjm
         self.columns = {ros2_joint_name(m.joint(j).name): int(m.jnt_qposadr[j]) for j in scalar_joints(m)}
         self.objects = [shape.name for shape in self.task.scene.objects]
+        self.command: Any = None  # the last commands sent
         self._last: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}
 
     def initial_qpos(self) -> list[float]:
@@ -96,7 +97,9 @@ class Observer:
         return self.env.observe()[0].cpu().numpy()
 
     def acted(self, action: np.ndarray) -> list[float]:
-        """Record the action (the next observation's last action) and return its servo targets."""
+        """Record the action (the next observation's last action) and return the commands to send: the hand's
+        servo targets as they are (its firmware ramps them, in the simulation as on the hand), an arm's joints
+        ramped at their rated speeds here, as the task's environment ramps them (a forward controller would not)."""
         import torch
 
         env = self.env
@@ -104,7 +107,13 @@ class Observer:
         env.episode_length_buf += 1
         if env.task.update is not None:
             env.task.update(env)
-        return env.targets(env.action)[0].tolist()
+        targets = env.targets(env.action)[0]
+        hand = torch.tensor([env.is_hand(a) for a in env.actuators])
+        if self.command is None:
+            self.command = env.setpoint[0].clone()
+        step = torch.maximum(torch.minimum(targets - self.command, env.ramp), -env.ramp)
+        self.command = torch.where(hand, targets, self.command + step)
+        return self.command.tolist()
 
     def verdict(self) -> dict[str, Any]:
         env = self.env

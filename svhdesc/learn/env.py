@@ -95,11 +95,13 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
                 self.free[m.body(int(m.jnt_bodyid[j])).name] = (int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j]))
 
     def _velocity_limits(self) -> torch.Tensor:
+        """Each actuator's joint's URDF velocity limit (rad/s): the SVH firmware's setpoint ramp for the hand's
+        channels, the rated joint speed for an arm's (a UR moves no faster whatever it is commanded)."""
         from svhdesc.model import get, urdf_velocity_limits
 
         limits = urdf_velocity_limits(get(self.task.scene.variant).urdf_path) if self.task.actions.ramp else {}
         joints = [self.mjm.joint(int(self.mjm.actuator_trnid[a, 0])).name for a in range(self.mjm.nu)]
-        speeds = [limits.get(j, math.inf) if self.is_hand(a) else math.inf for a, j in zip(self.actuators, joints)]
+        speeds = [limits.get(j, math.inf) for j in joints]
         return torch.tensor(speeds, dtype=torch.float32, device=self.device)
 
     def channel_name(self, actuator: str) -> str:
@@ -211,6 +213,7 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         self.sense()
 
     def _reset(self, mask: torch.Tensor) -> None:
+        self.physics.clear(mask)
         self._randomise(mask)
         self.task.reset(self, mask)
         self.physics.commit_model()
@@ -262,8 +265,11 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
                 time_out = time_out | hit
             else:
                 failed = failed | hit
+        diverged = self.physics.diverged()
+        failed = failed | diverged
+        time_out = time_out & ~diverged
         ended = failed | time_out
-        self.stats.add(self, ended, failed, reward)
+        self.stats.add(self, ended, failed, reward, diverged)
         if bool(ended.any()):
             self._reset(ended)
             self.physics.kinematics()
@@ -333,15 +339,13 @@ class EpisodeStats:
 
     def clear(self) -> None:
         zero = torch.zeros((), device=self.device)
-        self.episodes, self.successes, self.failures, self.score = (
-            zero.clone(),
-            zero.clone(),
-            zero.clone(),
-            zero.clone(),
-        )
+        self.episodes, self.successes, self.failures, self.score, self.diverged = (zero.clone() for _ in range(5))
 
-    def add(self, env: TaskEnv, ended: torch.Tensor, failed: torch.Tensor, reward: torch.Tensor) -> None:
-        won = env.task.success(env).bool() & ended
+    def add(
+        self, env: TaskEnv, ended: torch.Tensor, failed: torch.Tensor, reward: torch.Tensor, diverged: torch.Tensor
+    ) -> None:
+        won = env.task.success(env).bool() & ended & ~diverged
+        self.diverged += diverged.sum()
         self.episodes += ended.sum()
         self.successes += won.sum()
         self.failures += failed.sum()
@@ -356,6 +360,7 @@ class EpisodeStats:
             "episodes": n,
             "success": float(self.successes) / n,
             "failure": float(self.failures) / n,
+            "diverged": float(self.diverged) / n,
             "score": float(self.score) / n,
         }
 

@@ -55,6 +55,13 @@ class Physics(Protocol):
 
     def commit_model(self) -> None: ...
 
+    def diverged(self) -> Any: ...
+
+    def clear(self, mask: Any) -> None: ...
+
+
+MAX_SPEED = 1000.0  # rad/s or m/s: a world faster than this anywhere has blown up, whatever its numbers say
+
 
 class WarpPhysics:
     """``nworld`` worlds on MuJoCo Warp; ``state`` and ``model`` are zero-copy torch views of Warp's arrays."""
@@ -91,6 +98,18 @@ class WarpPhysics:
 
     def commit_model(self) -> None:
         """Nothing to do: ``model`` is Warp's own memory."""
+
+    def diverged(self) -> Any:
+        """Worlds whose state is not finite or absurdly fast (Warp carries on with NaN where MuJoCo C resets)."""
+        qpos, qvel = self.state["qpos"], self.state["qvel"]
+        return ~(qpos.isfinite().all(1) & qvel.isfinite().all(1)) | (qvel.abs() > MAX_SPEED).any(1)
+
+    def clear(self, mask: Any) -> None:
+        """Forget the masked worlds' solver warm start (it may hold a diverged world's NaN)."""
+        import torch
+
+        warm = self.wp.to_torch(self.batch.data.qacc_warmstart)
+        warm.copy_(torch.where(mask.view(-1, 1), torch.zeros_like(warm), warm))
 
 
 class CPhysics:
@@ -143,9 +162,21 @@ class CPhysics:
         self._run(0, kinematics=True)
 
     def check_overflow(self) -> None:
-        bad = [w for w, d in enumerate(self._datas) if not np.all(np.isfinite(d.qacc))]
-        if bad:
-            raise SvhdescError(f"MuJoCo C diverged in {len(bad)} of {self.nworld} worlds (first: {bad[0]})")
+        """MuJoCo C has no capacities to overflow: it grows its arena."""
+
+    def diverged(self) -> Any:
+        """Worlds MuJoCo C found unstable since the last call (it resets such a world's data and warns)."""
+        import torch
+
+        bad = self._mj.mjtWarning.mjWARN_BADQACC
+        hit = [d.warning[bad].number > 0 for d in self._datas]
+        for d in self._datas:
+            d.warning[bad].number = 0
+        return torch.tensor(hit) | (self.state["qvel"].abs() > MAX_SPEED).any(1)
+
+    def clear(self, mask: Any) -> None:
+        for world in mask.nonzero().flatten().tolist():
+            self._datas[world].qacc_warmstart[:] = 0.0
 
     def data(self, world: int) -> Any:
         """World ``world``'s MjData, with its parameters swapped into ``mjm`` (for rendering)."""

@@ -82,7 +82,8 @@ class Actions:
     default: dict[str, float] = field(default_factory=dict)
     arm_scale: float | None = None  # the arm's joints, where they differ
     # The SVH firmware moves a channel's setpoint toward the command at most at the channel's velocity limit
-    # (the URDF's <limit velocity>), as svhdesc's simulation node does; here once per control period.
+    # (the URDF's <limit velocity>), as svhdesc's simulation node does; an arm's joints move no faster than theirs.
+    # Here once per control period.
     ramp: bool = True
 
 
