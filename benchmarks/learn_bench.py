@@ -192,7 +192,8 @@ def report(
         "",
         "| throughput | figure |",
         "|---|---|",
-        f"| physics alone (same worlds, random targets) | {world_steps:,.0f} world-steps/s = {sim_rate:,.1f} simulated s/s |",
+        f"| physics alone (same worlds, random targets) | {world_steps:,.0f} world-steps/s = "
+        f"{sim_rate:,.1f} simulated s/s |",
         f"| while training (median iteration) | {rate:,.0f} env-steps/s = {rate / task.control_hz:,.1f} simulated s/s "
         f"({rate / task.control_hz / sim_rate:.2f} of the physics alone) |",
         "",
