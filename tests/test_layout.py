@@ -30,7 +30,7 @@ import pytest
 from tests.support import REPO
 
 PACKAGE = REPO / "svhdesc"
-RUNTIME = ("loaders", "sim", "ros1", "ros2", "control", "plan", "compare", "wireloop", "batch", "validate")
+RUNTIME = ("loaders", "sim", "ros1", "ros2", "control", "plan", "compare", "wireloop", "batch", "learn", "validate")
 NO_COMPILER = (*RUNTIME, "model", "core")  # what may not import svhdesc.compiler
 FRONT = {"svhdesc", "svhdesc.cli"}  # the package face and the command line, that may import the face
 COUPLING_HOMES = {"svhdesc.model", "svhdesc.ir"}

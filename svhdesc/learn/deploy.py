@@ -4,7 +4,7 @@ Two processes, as on the robot:
 - the simulation (``svhdesc.ros2.node.serve``) on the task's scene built from the main model (noslip,
   multi-contact), started in the state the task's reset gives for ``--seed``, publishing each object's pose as a
   tracker would (``/tracked/<object>``, geometry_msgs/PoseStamped) beside the drivers' interfaces;
-- the policy node (``python -m svhdesc.learn.deploy``, rclpy + onnxruntime): it swaps the forward position
+- the policy node (``python -m svhdesc.learn.ros2_policy``, rclpy + onnxruntime): it swaps the forward position
   controllers in for the trajectory controllers (one STRICT ``switch_controller``, then ``list_controllers`` to
   check), and at the task's control rate (simulated time) builds the actor's observation from ``/joint_states``
   and the tracker with the task's own terms, runs the ONNX actor and publishes the servo targets on
@@ -158,7 +158,7 @@ def run(task: Task, policy: Path, seed: int, duration: float) -> dict[str, Any]:
     verdict: dict[str, Any] = {}
 
     def start_policy(node: Any) -> None:
-        command = [sys.executable, "-m", "svhdesc.learn.deploy", task.name, str(policy), str(seed), str(duration)]
+        command = [sys.executable, "-m", "svhdesc.learn.ros2_policy", task.name, str(policy), str(seed), str(duration)]
         child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
 
         def wait() -> None:
@@ -173,16 +173,3 @@ def run(task: Task, policy: Path, seed: int, duration: float) -> dict[str, Any]:
     if "error" in verdict:
         raise SvhdescError(f"policy node: {verdict['error']}")
     return verdict
-
-
-def _main() -> int:
-    from svhdesc.learn.ros2_policy import policy_node
-    from svhdesc.learn.tasks import task
-
-    name, policy, seed, duration = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
-    print(json.dumps(policy_node(task(name), policy, seed, duration)), flush=True)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(_main())

@@ -174,3 +174,18 @@ def policy_node(task: Task, policy: Path, seed: int, duration: float) -> dict[st
         if runner is not None:
             runner.close()
         rclpy.try_shutdown()
+
+
+def _main() -> int:
+    import json
+    import sys
+
+    from svhdesc.learn.tasks import task
+
+    name, policy, seed, duration = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+    print(json.dumps(policy_node(task(name), policy, seed, duration)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_main())
