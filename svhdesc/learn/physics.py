@@ -130,6 +130,7 @@ class CPhysics:
         self._params = {name: np.stack([_param(mjm, name)] * nworld) for name in MODEL_FIELDS}
         self.state = {name: torch.from_numpy(a) for name, a in self._state.items()}
         self.model = {name: torch.from_numpy(a) for name, a in self._params.items()}
+        self._simple = simple_free_bodies(mjm)
 
     def commit_model(self) -> None:
         """Nothing to do: each world's parameters are swapped into the model as it steps."""
@@ -138,6 +139,12 @@ class CPhysics:
         for name, array in self._params.items():
             target = getattr(self.mjm, name)
             target[...] = array[world].reshape(target.shape)
+        # MuJoCo C takes a simple body's mass matrix from dof_M0 (computed at compile time), not from body_mass:
+        # without this, a free cube given 0.71 of its mass fell at 0.71 g. Warp computes it from the body's mass.
+        mass, inertia = self._params["body_mass"][world], self._params["body_inertia"][world]
+        for body, dof in self._simple:
+            self.mjm.dof_M0[dof : dof + 3] = mass[body]
+            self.mjm.dof_M0[dof + 3 : dof + 6] = inertia[body]
 
     def _run(self, nstep: int, kinematics: bool) -> None:
         for w, d in enumerate(self._datas):
@@ -182,6 +189,18 @@ class CPhysics:
         """World ``world``'s MjData, with its parameters swapped into ``mjm`` (for rendering)."""
         self._use(world)
         return self._datas[world]
+
+
+def simple_free_bodies(mjm: Any) -> list[tuple[int, int]]:
+    """(body, first dof) of each free-floating body MuJoCo C treats as simple (inertia on its axes)."""
+    import mujoco
+
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    return [
+        (int(mjm.jnt_bodyid[j]), int(mjm.jnt_dofadr[j]))
+        for j in range(mjm.njnt)
+        if int(mjm.jnt_type[j]) == free and int(mjm.body_simple[int(mjm.jnt_bodyid[j])]) == 1
+    ]
 
 
 def _field(data: Any, name: str) -> np.ndarray:

@@ -102,3 +102,26 @@ def test_warp_steps_like_mujoco_c() -> None:
             env.step(action)
     warp, c = (reach.tip_pos(env) for env in envs)
     assert torch.allclose(warp.double(), c.double(), atol=2e-3), (warp, c)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["svh_rotate", "ur5_lift"])
+def test_warp_runs_the_contact_tasks_within_their_capacities(name: str) -> None:
+    """The contact tasks on Warp's CPU device: per-world randomised objects, 5 control periods of random actions,
+    no overflow of the capacities the task states (BatchOverflow otherwise), every world still finite; the objects
+    where MuJoCo C puts them from the same reset (2 mm after the first period)."""
+    pytest.importorskip("mujoco_warp")
+    envs = [TaskEnv(task(name), 2, device="cpu", backend=b, seed=4) for b in ("warp", "mujoco")]
+    sizes = [env.physics.model["geom_size"][:, env.geom_id(env.task.scene.objects[0].name)] for env in envs]
+    assert torch.allclose(sizes[0].double(), sizes[1].double(), atol=1e-6) and not torch.equal(sizes[0][0], sizes[0][1])
+    generator = torch.Generator().manual_seed(1)
+    for period in range(5):
+        action = 0.5 * torch.randn(2, envs[0].num_actions, generator=generator)
+        for env in envs:
+            env.step(action)
+        if period == 0:
+            name0 = envs[0].task.scene.objects[0].name
+            warp, c = (env.object_pos(name0).double() for env in envs)
+            assert torch.allclose(warp, c, atol=2e-3), (warp, c)
+    envs[0].physics.check_overflow()
+    assert not envs[0].physics.diverged().any() and torch.isfinite(envs[0].qpos).all()
