@@ -20,7 +20,7 @@ pytest.importorskip("mujoco")
 
 from svhdesc.learn import task  # noqa: E402
 from svhdesc.learn.env import TaskEnv  # noqa: E402
-from svhdesc.learn.tasks import lift, reach, rotate  # noqa: E402
+from svhdesc.learn.tasks import lift, reach, reorient, rotate  # noqa: E402
 
 
 def _everyone(env: TaskEnv) -> torch.Tensor:
@@ -181,3 +181,21 @@ def test_reach_success_at_target() -> None:
     assert env.task.success(env).all()
     terms = {r.name: r for r in env.task.rewards}
     assert torch.allclose(terms["reach"].fn(env), torch.ones(env.num_envs), atol=1e-3)
+
+
+def test_reorient_counts_a_reached_target_and_draws_the_next() -> None:
+    """The cube turned onto its target: one target reached, 100 of reward for it, a new target at once; the
+    score counts them. Seeded fault: ``update`` not drawing a new target (the same one is counted every step)."""
+    env = TaskEnv(task("svh_reorient"), 3, backend="mujoco", seed=6)
+    goal = env.commands["goal"].clone()
+    assert torch.all(reorient.orientation_error(env) > reorient.THRESHOLD)
+    env.set_object(_everyone(env), "cube", env.object_pos("cube").clone(), goal)
+    env.physics.kinematics()
+    env.task.update(env)
+    assert torch.equal(env.commands["reached"], torch.ones(3)) and env.commands["hit"].all()
+    assert not torch.allclose(env.commands["goal"], goal)
+    terms = {r.name: r for r in env.task.rewards}
+    assert torch.allclose(terms["reached"].fn(env) * terms["reached"].weight * env.dt, torch.full((3,), 100.0))
+    env.task.update(env)  # the cube has not moved: the new target is not reached
+    assert torch.equal(env.commands["reached"], torch.ones(3)) and not env.commands["hit"].any()
+    assert torch.equal(env.task.score(env), torch.ones(3)) and env.task.success(env).all()

@@ -11,6 +11,7 @@ from svhdesc.learn.spec import Task
 TASKS = {
     "svh_reach": "reach",
     "svh_rotate": "rotate",
+    "svh_reorient": "reorient",
     "ur5_lift": "lift",
 }
 

@@ -59,6 +59,13 @@ def dropped(env: Any) -> torch.Tensor:
 
 
 def reset(env: Any, mask: torch.Tensor) -> None:
+    place_cube(env, mask)
+    spin = env.commands.get("yaw", torch.zeros(env.num_envs, device=env.device))
+    env.commands["yaw"] = torch.where(mask, torch.zeros_like(spin), spin)
+
+
+def place_cube(env: Any, mask: torch.Tensor) -> None:
+    """The hand near its cupped pose, the cube (randomised size, mass, friction) flat on the palm, any yaw."""
     r = env.task.randomisation
     scale = env.uniform(*r.object_scale)
     mass = CUBE.mass * scale**3 if r.object_mass is None else env.uniform(*r.object_mass)
@@ -73,8 +80,6 @@ def reset(env: Any, mask: torch.Tensor) -> None:
     yaw = env.uniform(-math.pi, math.pi)
     up = torch.tensor((0.0, 0.0, 1.0), device=env.device).expand(env.num_envs, 3)
     env.set_object(mask, "cube", pos, mdp.quat_from_axis_angle(up, yaw))
-    spin = env.commands.get("yaw", torch.zeros(env.num_envs, device=env.device))
-    env.commands["yaw"] = torch.where(mask, torch.zeros_like(spin), spin)
 
 
 def update(env: Any) -> None:
@@ -99,7 +104,7 @@ def _mean_rate(env: Any) -> torch.Tensor:
     return env.commands["yaw"] / elapsed
 
 
-def _params(env: Any) -> torch.Tensor:
+def cube_params(env: Any) -> torch.Tensor:
     """The cube's randomised size, mass and friction (privileged)."""
     geom, body = env.geom_id("cube"), env.bodies["cube"]
     model = env.physics.model
@@ -131,7 +136,7 @@ TASK = Task(
         Obs("cube_rot", lambda env: mdp.rot6d(env.object_quat("cube"))),
         Obs("cube_linvel", lambda env: env.object_linvel("cube")),
         Obs("cube_angvel", lambda env: env.object_angvel("cube")),
-        Obs("cube_params", _params),
+        Obs("cube_params", cube_params),
     ),
     rewards=(
         Reward("yaw_rate", _turning, 1.0),
