@@ -5,7 +5,8 @@ a termination: test_rotate_drop_terminates_and_fails); the yaw-rate reward's cli
 (a cube turned the other way is rewarded 0, not penalised: test_rotate_rewards_turning_about_z); ``lift.update``
 not resetting ``held`` when the object leaves the target (test_lift_success_needs_a_second_held); the lift reset
 parking the active shape too (test_lift_reset_one_object_on_the_table); the reach target drawn from the start pose
-instead of the goal (test_reach_success_at_target); the randomised cube mass ignored (test_rotate_reset_randomises).
+instead of the goal (test_reach_success_at_target); the randomised cube mass ignored (test_rotate_reset_randomises);
+reorient's ``update`` keeping a reached target (test_reorient_counts_a_reached_target_and_draws_the_next).
 """
 
 from __future__ import annotations
