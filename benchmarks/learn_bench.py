@@ -8,12 +8,14 @@ and simulated s per wall s), then PPO for ``--minutes`` (each iteration's env-st
 wall time: the curve), then the trained actor (ONNX) evaluated on ``--episodes`` episodes beside the untrained one
 (action 0) and the task's scripted baseline where it has one, on the batch model it trained on and on the main model
 in MuJoCo C (noslip, multi-contact): the ratio of the two successes is what the batch model's simplifications cost.
+The trained actor is kept beside the page (docs/results/learn_<task>[...].onnx): tools/render_docs.py draws it.
 The goals of issue 36 are printed beside the figures they concern, met or not.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import tempfile
 import time
@@ -164,7 +166,8 @@ def main() -> None:
         out = args.out or Path(scratch) / "run"
         last = train(task, env, out, args.minutes, None, seed=args.seed, on_iteration=record)
         rows = evaluate_all(task, last.parent / "policy.onnx", args.episodes, args.device, backend, args.seed)
-    name = page_name(task.name, args.device)
+        name = page_name(task.name, args.device)
+        shutil.copyfile(last.parent / "policy.onnx", RESULTS / f"{name}.onnx")  # the policy the page measured
     plot(task, curve, RESULTS / f"{name}.png")
     body = report(task, args, backend, envs, env, world_steps, sim_rate, curve, rows, name)
     path = write(name, f"Learning {task.name} on {args.device} ({backend})", body)

@@ -1,4 +1,4 @@
-"""Command line: ``svhdesc build|list|info|validate|render|compare|wireloop|sim``.
+"""Command line: ``svhdesc build|list|info|validate|render|compare|wireloop|sim|train|play|deploy``.
 
 Bad input: one line on stderr, exit code 2.
 """

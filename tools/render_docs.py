@@ -11,7 +11,10 @@
   docs/results/pick_and_place.json, which `python examples/pick_and_place.py --json docs/results/pick_and_place.json`
   writes (it needs a ROS master and the simulation: see docs/pick_and_place.md); drawing the pictures needs neither;
 - wireloop: docs/wireloop_mujoco.png, the UR5 + SVH after the learned wire-loop plan (`svhdesc wireloop train`
-  with its defaults, then `svhdesc wireloop mujoco --path test`: the test path, final pose; about half a minute).
+  with its defaults, then `svhdesc wireloop mujoco --path test`: the test path, final pose; about half a minute);
+- learning: docs/learn_<task>.png, one episode (seed 1, the main model) of each trained policy that
+  benchmarks/learn_bench.py kept beside its results page (docs/results/learn_<task>.onnx), as
+  `svhdesc play TASK --checkpoint docs/results/learn_<task>.onnx --out docs/learn_<task>.png` draws it.
 
 Every picture goes through svhdesc.validate.render (the light studio of svhdesc.offscreen).
 """
@@ -46,7 +49,7 @@ VIEWS = {
 ARMS = ("panda_svh", "ur10_svh", "kinova_svh")
 GRASP_VARIANT = "svh_right"
 PICK_AND_PLACE = REPO / "docs" / "results" / "pick_and_place.json"
-PARTS = ("variants", "arms", "grasps", "pick_and_place", "wireloop")
+PARTS = ("variants", "arms", "grasps", "pick_and_place", "wireloop", "learning")
 
 
 def draw_variants(out: Path) -> list[Path]:
@@ -114,6 +117,19 @@ def draw_wireloop(out: Path, scratch: Path) -> list[Path]:
     return [path]
 
 
+def draw_learning(out: Path) -> list[Path]:
+    written = []
+    for policy in sorted((REPO / "docs" / "results").glob("learn_*.onnx")):
+        task = policy.stem.removeprefix("learn_")
+        if "_gpu" in task:
+            continue  # the CPU run's picture; a GPU's policy is the same task's
+        path = out / f"learn_{task}.png"
+        command = [sys.executable, "-m", "svhdesc.cli", "play", task, "--checkpoint", str(policy), "--episodes", "0"]
+        subprocess.run([*command, "--out", str(path), "--frames", "5"], check=True, cwd=REPO)
+        written.append(path)
+    return written
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", default=",".join(PARTS), help=f"comma-separated parts ({', '.join(PARTS)})")
@@ -133,6 +149,7 @@ def main() -> None:
             "grasps": lambda: draw_grasps(args.out),
             "pick_and_place": lambda: draw_pick_and_place(args.out, args.pick_and_place),
             "wireloop": lambda: draw_wireloop(args.out, Path(scratch)),
+            "learning": lambda: draw_learning(args.out),
         }
         for part in parts:
             for path in drawers[part]():

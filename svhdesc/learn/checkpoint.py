@@ -95,6 +95,7 @@ def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
                 opset_version=18,
                 dynamic_shapes=({0: torch.export.Dim("batch")},),
                 dynamo=True,
+                external_data=False,  # one self-contained file (else the weights go beside it, under its name)
             )
         model = onnx.load(temporary)
         entry = model.metadata_props.add()

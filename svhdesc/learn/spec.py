@@ -136,5 +136,6 @@ class Task:
     training: Training = Training()
     score: Term | None = None  # a task's own figure per episode (e.g. the cube's yaw rate), for reports
     score_name: str = ""
+    markers: Term | None = None  # [nenv, k, 3] points a picture shows as small green spheres (targets)
     # The picture's free camera: look-at point (m), distance (m), azimuth and elevation (degrees)
     camera: tuple[tuple[float, float, float], float, float, float] = ((0.0, 0.0, 0.1), 0.5, 135.0, -25.0)

@@ -199,6 +199,7 @@ TASK = Task(
     ),
     training=Training(steps_per_env=24, hidden=(512, 256, 128), learning_rate=1e-3, entropy=0.005, envs=4096),
     score=lambda env: torch.linalg.norm(to_target(env), dim=-1) * 100.0,
+    markers=lambda env: env.commands["target"].unsqueeze(1),
     camera=((0.12, 0.55, -0.15), 0.75, 200.0, -25.0),
     score_name="distance from the target (cm)",
 )

@@ -88,7 +88,8 @@ TASK = Task(
     success=lambda env: tip_error(env) < TOLERANCE,
     randomisation=Randomisation(servo_gain=(0.9, 1.1), joint_damping=(0.9, 1.1), latency=(0, 1)),
     training=Training(steps_per_env=16, hidden=(128, 128), learning_rate=1e-3, entropy=0.002, init_noise=0.6),
-    camera=((0.0, -0.01, 0.12), 0.35, 150.0, -20.0),
+    markers=lambda env: env.commands["target"].unsqueeze(1),
+    camera=((0.0, 0.0, 0.13), 0.32, -120.0, -15.0),
     score=lambda env: tip_error(env) * 1000.0,
     score_name="fingertip error at the end (mm)",
 )
