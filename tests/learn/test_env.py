@@ -77,6 +77,7 @@ def test_bad_arguments() -> None:
         task("svh_juggle")
 
 
+@pytest.mark.slow
 def test_warp_tensors_are_warps_memory() -> None:
     pytest.importorskip("mujoco_warp")
     env = TaskEnv(task("svh_reach"), 2, device="cpu", backend="warp", seed=1)

@@ -10,6 +10,7 @@ of another task's checkpoint); ``_out`` accepting a non-empty folder (the same t
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -36,6 +37,14 @@ def _scalars(folder: Path) -> dict[str, list[float]]:
 
 
 @pytest.fixture(scope="module")
+def cpu_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two iterations in MuJoCo C: a checkpoint and an actor of svh_reach, in seconds."""
+    reach = task("svh_reach")
+    out = tmp_path_factory.mktemp("cpu_run")
+    return train(reach, TaskEnv(reach, 4, backend="mujoco", seed=2), out, None, 2, say=lambda line: None)
+
+
+@pytest.fixture(scope="module")
 def warp_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     pytest.importorskip("mujoco_warp")
     reach = task("svh_reach")
@@ -47,6 +56,7 @@ def warp_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return last
 
 
+@pytest.mark.slow
 def test_two_iterations_on_warp(warp_run: Path) -> None:
     scalars = _scalars(warp_run.parent)
     losses = {tag: values for tag, values in scalars.items() if tag.startswith("Loss/")}
@@ -64,18 +74,44 @@ def test_two_iterations_on_warp(warp_run: Path) -> None:
     assert not np.allclose(onnx_actions, 0.0, atol=1e-3)  # the trained actor, not a blank one
 
 
-def test_resume_continues(warp_run: Path, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_resume_continues(cpu_run: Path, tmp_path: Path) -> None:
     reach = task("svh_reach")
     env = TaskEnv(reach, 4, device="cpu", backend="mujoco", seed=2)
-    last = train(reach, env, tmp_path, minutes=None, iterations=1, resume=warp_run, say=lambda line: None)
+    last = train(reach, env, tmp_path, minutes=None, iterations=1, resume=cpu_run, say=lambda line: None)
     assert last.name == "model_2.pt"
     saved = torch.load(str(last), weights_only=False)
     assert saved["iter"] == 2 and saved["infos"]["task"] == "svh_reach"
 
 
-def test_bad_inputs_are_one_line(warp_run: Path, tmp_path: Path) -> None:
+def reach_files(folder: Path) -> tuple[str, str]:
+    """A checkpoint and an ONNX actor of svh_reach as svhdesc writes their task into them (the networks are not
+    needed to refuse them for another task): made in milliseconds, for the fast set."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    from svhdesc.learn.checkpoint import FORMAT
+
+    infos = {"format": FORMAT, "task": "svh_reach"}
+    checkpoint = folder / "model_3.pt"
+    torch.save({"iter": 3, "infos": infos}, checkpoint)
+    graph = helper.make_graph(
+        [helper.make_node("Identity", ["obs"], ["actions"])],
+        "actor",
+        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, [None, 4])],
+        [helper.make_tensor_value_info("actions", TensorProto.FLOAT, [None, 4])],
+    )
+    model = helper.make_model(graph)
+    entry = model.metadata_props.add()
+    entry.key, entry.value = "svhdesc", json.dumps(infos)
+    actor = folder / "policy.onnx"
+    onnx.save(model, actor)
+    return str(checkpoint), str(actor)
+
+
+def test_bad_inputs_are_one_line(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    reach_ckpt, reach_onnx = str(warp_run), str(warp_run.parent / "policy.onnx")
+    reach_ckpt, reach_onnx = reach_files(tmp_path)
     common = ("--backend", "mujoco", "--iterations", "1", "--out", str(out))
     fails_cleanly(None, "train", "svh_juggle", *common, match="unknown task 'svh_juggle'")
     fails_cleanly(None, "train", "svh_reach", "--envs", "0", *common, match="--envs must be at least 1")
