@@ -74,16 +74,18 @@ class WarpPhysics:
         self.device = torch.device(str(self.batch.device))
         self.state = {name: self.wp.to_torch(getattr(self.batch.data, name)) for name in STATE_FIELDS}
         self.model = {name: self.wp.to_torch(getattr(self.batch.model, name)) for name in MODEL_FIELDS}
+        if self.batch.device.is_cuda:
+            # One stream for both libraries, so a tensor torch writes is ready for Warp's next kernel and back, with
+            # no synchronisation; a stream of its own, not CUDA's legacy default one, on which a step's CUDA graph
+            # could not be captured.
+            stream = torch.cuda.Stream(device=self.device)
+            torch.cuda.set_stream(stream)
+            self.wp.set_stream(self.wp.stream_from_torch(stream), self.batch.device)
 
     @contextlib.contextmanager
     def _stream(self) -> Iterator[None]:
-        # Warp's launches on torch's current stream: a tensor written by torch is ready for the next kernel.
         with self.wp.ScopedDevice(self.batch.device):
-            if self.batch.device.is_cuda:
-                with self.wp.ScopedStream(self.wp.stream_from_torch()):
-                    yield
-            else:
-                yield
+            yield
 
     def step(self, nstep: int) -> None:
         with self._stream():
