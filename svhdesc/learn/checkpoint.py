@@ -13,6 +13,7 @@ import io
 import json
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -40,15 +41,22 @@ def save_checkpoint(runner: Any, out: Path, task: Task, env: Any, steps: int) ->
     """``out/model_<iteration>.pt``, written to a temporary file in ``out`` and renamed into place."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"model_{runner.current_learning_iteration}.pt"
-    handle, temporary = tempfile.mkstemp(dir=out, prefix=".model-", suffix=".pt")
+    with replaced(path) as temporary:
+        runner.save(temporary, infos=policy_info(task, env, steps))
+    return path
+
+
+@contextlib.contextmanager
+def replaced(path: Path) -> Iterator[str]:
+    """A temporary file beside ``path`` to write; renamed onto ``path`` if the block ends well, else removed."""
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
     os.close(handle)
     try:
-        runner.save(temporary, infos=policy_info(task, env, steps))
+        yield temporary
         os.replace(temporary, path)
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
-    return path
 
 
 def read_checkpoint(path: Path, task: Task) -> dict[str, Any]:
@@ -80,10 +88,8 @@ def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
 
     module = runner.alg.get_policy().as_onnx(verbose=False).to("cpu").eval()
     dummy = torch.zeros(1, module.input_size)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".policy-", suffix=".onnx")
-    os.close(handle)
     logging.getLogger("torch.onnx").setLevel(logging.ERROR)  # torchvision's absent operators, not ours
-    try:
+    with replaced(path) as temporary:
         with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):  # its progress lines
             warnings.simplefilter("ignore")
             torch.onnx.export(
@@ -101,10 +107,6 @@ def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
         entry = model.metadata_props.add()
         entry.key, entry.value = "svhdesc", json.dumps(policy_info(task, env), sort_keys=True)
         onnx.save(model, temporary)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
     return path
 
 
