@@ -68,9 +68,9 @@ TASK = dataclasses.replace(
     rewards=(
         Reward("orientation", _orientation, 5.0),
         Reward("reached", lambda env: env.commands["hit"].float() / env.dt, 100.0),  # 100 a target, as Playground
-        Reward("off_palm", lambda env: torch.linalg.norm(rotate.cube_offset(env), dim=-1), -10.0),
+        Reward("off_palm", lambda env: torch.linalg.norm(rotate.cube_offset(env), dim=-1), -1.0),
         Reward("dropped", lambda env: rotate.dropped(env).float(), -100.0),
-        Reward("action_rate", lambda env: torch.square(env.action - env.previous_action).sum(-1), -0.05),
+        Reward("action_rate", lambda env: torch.square(env.action - env.previous_action).sum(-1), -0.001),
     ),
     dones=(Done("dropped", rotate.dropped),),
     reset=reset,

@@ -140,9 +140,11 @@ TASK = Task(
     ),
     rewards=(
         Reward("yaw_rate", _turning, 1.0),
-        Reward("off_palm", _off_palm, -10.0),
+        # Small beside the turning: at the policy's first noise (std 1) an action-rate weight of 0.05 cost 0.9 a
+        # second, a hundred times what the scripted gait's turning earns (0.011 rad/s): the policy learned to be still.
+        Reward("off_palm", _off_palm, -1.0),
         Reward("dropped", lambda env: dropped(env).float(), -100.0),
-        Reward("action_rate", _action_rate, -0.05),
+        Reward("action_rate", _action_rate, -0.001),
     ),
     dones=(Done("dropped", dropped),),
     reset=reset,
