@@ -82,6 +82,7 @@ def evaluate_all(task: Any, policy: Path, episodes: int, device: str, backend: s
                 "episodes": figures.episodes,
                 "success": figures.success,
                 "score": figures.score,
+                "diverged": figures.diverged,
             }
         )
         print(f"{who} on the {source} model ({engine}): success {figures.success:.2f}, score {figures.score}")
@@ -202,14 +203,14 @@ def report(
         "",
         f"![training curve]({name}.png)",
         "",
-        "| policy | model | engine | episodes | success | " + (task.score_name or "score") + " |",
-        "|---|---|---|---|---|---|",
+        "| policy | model | engine | episodes | success | " + (task.score_name or "score") + " | physics unstable |",
+        "|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         score = f"{row['score']:.3g}" if row["score"] is not None else "-"
         lines.append(
             f"| {row['policy']} | {row['model']} | {row['engine']} | {row['episodes']} | "
-            f"{row['success']:.2f} | {score} |"
+            f"{row['success']:.2f} | {score} | {row['diverged']:.2f} |"
         )
     lines += ["", *verdicts(task, args, rows, rate, env)]
     return lines

@@ -39,6 +39,7 @@ class Evaluation:
     success: float
     score: float | None
     returns: float
+    diverged: float = 0.0  # share of the episodes the physics ended (unstable), counted as failed
 
 
 def evaluate(
@@ -68,7 +69,8 @@ def evaluate(
     if not stats.get("episodes"):
         raise SvhdescError(f"no episode ended within {steps} control steps")
     score = stats["score"] if env.task.score is not None else None
-    return Evaluation(int(stats["episodes"]), stats["success"], score, float(np.mean(returns)) if returns else 0.0)
+    mean = float(np.mean(returns)) if returns else 0.0
+    return Evaluation(int(stats["episodes"]), stats["success"], score, mean, stats["diverged"])
 
 
 def zero_policy(width: int) -> Callable[[np.ndarray], np.ndarray]:
