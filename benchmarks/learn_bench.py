@@ -201,7 +201,7 @@ def report(
         f"| while training (median iteration) | {rate:,.0f} env-steps/s = {rate / task.control_hz:,.1f} simulated s/s "
         f"({rate / task.control_hz / sim_rate:.2f} of the physics alone) |",
         "",
-        f"![training curve]({name}.png)",
+        f"![training curve](/docs/results/{name}.png)",
         "",
         "| policy | model | engine | episodes | success | " + (task.score_name or "score") + " | physics unstable |",
         "|---|---|---|---|---|---|---|",

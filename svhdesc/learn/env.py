@@ -73,6 +73,9 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
     def _index(self) -> None:
         import mujoco
 
+        from svhdesc.model import HandId, get
+
+        self.hand = get(self.task.scene.variant).hand or HandId(None, None)
         m = self.mjm
         self.actuators = [m.actuator(a).name for a in range(m.nu)]
         joints = [int(m.actuator_trnid[a, 0]) for a in range(m.nu)]
@@ -105,14 +108,12 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
         return torch.tensor(speeds, dtype=torch.float32, device=self.device)
 
     def channel_name(self, actuator: str) -> str:
-        """An actuator's name without the hand's prefix: the driver's channel name (``Thumb_Flexion``)."""
-        for channel in _channels():
-            if actuator.endswith(channel):
-                return channel
-        return actuator
+        """An actuator's name without the hand's prefix (the built model's, svhdesc.model's HandId): the driver's
+        channel name (``Thumb_Flexion``); an arm's joint keeps its name."""
+        return self.hand.short(actuator) if self.hand.owns(actuator) else actuator
 
     def is_hand(self, actuator: str) -> bool:
-        return self.channel_name(actuator) in _channels()
+        return self.hand.owns(actuator) and self.channel_name(actuator) in _channels()
 
     def _scale(self, actuator: str) -> float:
         actions = self.task.actions

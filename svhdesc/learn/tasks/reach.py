@@ -19,21 +19,23 @@ TOLERANCE = 0.01  # m, fingertip error at the end that counts as success
 FINGER = "Index_Finger_Proximal"  # the channel whose finger reaches
 
 
-def fingertip(model: Any) -> int:
-    """The fingertip body on the chain of the joint driven by the ``FINGER`` channel."""
+def fingertip(model: Any, hand: Any) -> int:
+    """The fingertip body on the chain of the joint driven by the ``FINGER`` channel (``hand``: the built model's
+    HandId, which names it)."""
+    joint = hand.name(FINGER)
     for tip in fingertip_bodies(model):
         body = tip
         while body > 0:
             joints = [model.joint(int(model.body_jntadr[body]) + k).name for k in range(int(model.body_jntnum[body]))]
-            if any(name.endswith(FINGER) for name in joints):
+            if joint in joints:
                 return tip
             body = int(model.body_parentid[body])
-    raise ValueError(f"no fingertip below a joint named *{FINGER}")
+    raise ValueError(f"no fingertip below joint {joint}")
 
 
 def tip_pos(env: Any) -> torch.Tensor:
     if "tip" not in env.commands:
-        env.commands["tip"] = torch.tensor(fingertip(env.mjm), device=env.device)
+        env.commands["tip"] = torch.tensor(fingertip(env.mjm, env.hand), device=env.device)
     return env.physics.state["xpos"][:, env.commands["tip"]]
 
 
