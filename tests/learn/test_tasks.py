@@ -6,7 +6,8 @@ a termination: test_rotate_drop_terminates_and_fails); the yaw-rate reward's cli
 not resetting ``held`` when the object leaves the target (test_lift_success_needs_a_second_held); the lift reset
 parking the active shape too (test_lift_reset_one_object_on_the_table); the reach target drawn from the start pose
 instead of the goal (test_reach_success_at_target); the randomised cube mass ignored (test_rotate_reset_randomises);
-reorient's ``update`` keeping a reached target (test_reorient_counts_a_reached_target_and_draws_the_next).
+reorient's ``update`` keeping a reached target (test_reorient_counts_a_reached_target_and_draws_the_next); the
+rotate score divided by the time the episode lasted, not the episode's duration (test_rotate_score_of_an_early_drop).
 """
 
 from __future__ import annotations
@@ -99,6 +100,22 @@ def test_rotate_drop_terminates_and_fails(rotate_env: TaskEnv) -> None:
     assert stats["failure"] == 1.0 and stats["success"] == 0.0
     assert torch.all(reward < -50 * env.dt)  # the drop's -100 per second
     assert not rotate.dropped(env).any()  # and every world was reset
+
+
+def test_rotate_score_of_an_early_drop(rotate_env: TaskEnv) -> None:
+    """A cube spinning at 10 rad/s as it falls in the first control step scores the yaw it turned spread over the
+    whole episode (10 rad/s for one 40 ms step of a 10 s episode: 0.04 rad/s), not 10 rad/s."""
+    env = rotate_env
+    env.reset()
+    env.stats.clear()
+    _spin(env, 10.0)
+    env.task.update(env)
+    below = rotate.palm(env) + torch.tensor((0.0, 0.0, -0.15))
+    env.set_object(_everyone(env), "cube", below.expand(env.num_envs, 3), env.object_quat("cube").clone())
+    env.physics.kinematics()
+    _step(env)
+    score = env.stats.read()["score"]
+    assert score == pytest.approx(10.0 * env.dt / env.task.episode_s, rel=0.05), score
 
 
 @pytest.fixture(scope="module")

@@ -100,8 +100,10 @@ def _action_rate(env: Any) -> torch.Tensor:
 
 
 def _mean_rate(env: Any) -> torch.Tensor:
-    elapsed = torch.clamp(env.episode_length_buf.float(), min=1.0) * env.dt
-    return env.commands["yaw"] / elapsed
+    """The yaw turned this episode over the whole episode's duration: a cube dropped early counts what it turned
+    while held, spread over the full episode (over the time it lasted, one dropped cube spinning for a step made
+    the mean of 64 episodes 0.15 rad/s at action 0, where no held cube turned faster than 0.03)."""
+    return env.commands["yaw"] / (env.max_episode_length * env.dt)
 
 
 def cube_params(env: Any) -> torch.Tensor:
