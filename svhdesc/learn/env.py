@@ -340,7 +340,8 @@ class EpisodeStats:
 
     def clear(self) -> None:
         zero = torch.zeros((), device=self.device)
-        self.episodes, self.successes, self.failures, self.score, self.diverged = (zero.clone() for _ in range(5))
+        self.episodes, self.successes, self.failures, self.diverged = (zero.clone() for _ in range(4))
+        self.score, self.scored = zero.clone(), zero.clone()
 
     def add(
         self, env: TaskEnv, ended: torch.Tensor, failed: torch.Tensor, reward: torch.Tensor, diverged: torch.Tensor
@@ -351,7 +352,11 @@ class EpisodeStats:
         self.successes += won.sum()
         self.failures += failed.sum()
         if env.task.score is not None:
-            self.score += (env.task.score(env) * ended).sum()
+            # Over the episodes the physics kept: an unstable world's state (an object kilometres away, or not
+            # finite) says nothing of the policy, and one such score would outweigh all the others.
+            kept = ended & ~diverged
+            self.score += torch.where(kept, env.task.score(env), 0.0).sum()
+            self.scored += kept.sum()
 
     def read(self) -> dict[str, float]:
         n = float(self.episodes)
@@ -362,7 +367,7 @@ class EpisodeStats:
             "success": float(self.successes) / n,
             "failure": float(self.failures) / n,
             "diverged": float(self.diverged) / n,
-            "score": float(self.score) / n,
+            "score": float(self.score) / float(self.scored) if float(self.scored) else float("nan"),
         }
 
 

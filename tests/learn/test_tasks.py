@@ -7,7 +7,8 @@ not resetting ``held`` when the object leaves the target (test_lift_success_need
 parking the active shape too (test_lift_reset_one_object_on_the_table); the reach target drawn from the start pose
 instead of the goal (test_reach_success_at_target); the randomised cube mass ignored (test_rotate_reset_randomises);
 reorient's ``update`` keeping a reached target (test_reorient_counts_a_reached_target_and_draws_the_next); the
-rotate score divided by the time the episode lasted, not the episode's duration (test_rotate_score_of_an_early_drop).
+rotate score divided by the time the episode lasted, not the episode's duration (test_rotate_score_of_an_early_drop);
+the episodes' mean score taken over the diverged ones too (test_a_diverged_episode_scores_nothing).
 """
 
 from __future__ import annotations
@@ -116,6 +117,24 @@ def test_rotate_score_of_an_early_drop(rotate_env: TaskEnv) -> None:
     _step(env)
     score = env.stats.read()["score"]
     assert score == pytest.approx(10.0 * env.dt / env.task.episode_s, rel=0.05), score
+
+
+def test_a_diverged_episode_scores_nothing(rotate_env: TaskEnv) -> None:
+    """Two worlds blow up (their cubes flung at 2000 m/s, spinning at 2000 rad/s: diverged, failed), two drop their
+    cube: the episodes' score is the dropped ones' (0 rad/s), not a mean the flung cubes' yaw outweighs."""
+    env = rotate_env
+    env.reset()
+    env.stats.clear()
+    flung = torch.tensor([True, True, False, False])
+    adr = env.free["cube"][1]
+    env.qvel[:2, adr : adr + 6] = torch.tensor((0.0, 0.0, 2000.0, 0.0, 0.0, 2000.0))
+    below = rotate.palm(env) + torch.tensor((0.0, 0.0, -0.15))
+    env.set_object(~flung, "cube", below.expand(env.num_envs, 3), env.object_quat("cube").clone())
+    env.physics.kinematics()
+    _, done, _ = _step(env)
+    stats = env.stats.read()
+    assert done.all() and stats["diverged"] == 0.5 and stats["failure"] == 1.0, stats
+    assert stats["score"] == pytest.approx(0.0, abs=0.01), stats
 
 
 @pytest.fixture(scope="module")
