@@ -78,15 +78,15 @@ def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nt
         texts = []
         for file in files:
             try:
-                texts.append((file, file.read_text(encoding="utf-8", errors="replace").splitlines()))
+                texts.append((file, file.read_text(encoding="utf-8", errors="replace")))
             except OSError:
                 continue
-        for pattern in patterns:
+        for pattern in patterns:  # over the whole text: a tag may spread its attributes over lines (the double
+            # pendulum writes <joint, name= and type= on lines of their own); the line is the tag's own
             found = [
-                f"{file}:{number}"
-                for file, lines in texts
-                for number, line in enumerate(lines, start=1)
-                if pattern.search(line)
+                f"{file}:{text.count(chr(10), 0, match.start()) + 1}"
+                for file, text in texts
+                for match in pattern.finditer(text)
             ]
             if found:
                 return found[min(nth, len(found)) - 1]
