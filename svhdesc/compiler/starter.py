@@ -269,7 +269,12 @@ def _rate_leaders(robot: Robot, mimics: list, quirks: dict[str, Any]) -> Robot:
         # the channel carries its followers too: their loads through the mimic's multiplier
         carried = [(joint.name, 1.0)] + [(m.joint, m.multiplier) for m in mimics if m.leader == joint.name]
         found = [(loads[n], f) for n, f in carried if n in loads]
-        load = Load(math.fsum(abs(x.gravity * f) for x, f in found), math.fsum(x.inertia * f * f for x, f in found))
+        # the armature init gives the channel and each follower (ARMATURE) is inertia it moves too: Romeo's hands,
+        # 13 followers of links weighing next to nothing, got 0.001 N m and never left home under 1.4 kg m^2
+        armature = ARMATURE * math.fsum(f * f for _, f in carried)
+        load = Load(
+            math.fsum(abs(x.gravity * f) for x, f in found), math.fsum(x.inertia * f * f for x, f in found) + armature
+        )
         drive = size_drive(joint.type, joint.effort, joint.velocity, load)
         rated[joint.name] = replace(joint, effort=drive.effort, velocity=drive.velocity)
         quirks[joint.name] = JointDynamics(effort=drive.effort, velocity=drive.velocity)

@@ -18,6 +18,7 @@ import trimesh
 import yaml
 from lxml import etree
 
+from svhdesc.compiler.drives import MIN_ACCELERATION
 from svhdesc.compiler.probes.stability import fastest_servo, growth, servo_problem, servos
 from svhdesc.core.settings.config import load_config
 from tests.support import exported, fails_cleanly, run_cli
@@ -200,6 +201,17 @@ def test_a_revolute_joint_without_usable_limits_is_made_continuous_or_fixed_by_a
     assert code == 2 and "joints.wheel.type must be one of ['continuous', 'fixed']" in stderr, stderr
 
 
+def test_a_tag_spread_over_lines_is_named_at_its_line(tmp_path: Path) -> None:
+    """The double pendulum writes <joint, name= and type= on lines of their own: the error names the file and the
+    tag's line (seeded fault: locate matching line by line: the file alone)."""
+    spread = joint("pendulum", "base", "a", limit="<limit effort='1' velocity='1'/>", z=0.0).replace(
+        '<joint name="pendulum" type="revolute">', '<joint\n    name="pendulum"\n    type="revolute">'
+    )
+    source = urdf(tmp_path, "pendulum", link("a", 1.0) + spread)
+    code, stderr, _ = init(source)
+    assert code == 2 and f"{source}:4: joint pendulum: its limits give it no range" in stderr, stderr
+
+
 def _gravity_at_home(model: mujoco.MjModel) -> np.ndarray:
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
@@ -355,8 +367,9 @@ def test_a_joint_named_like_a_link_is_renamed_and_said(tmp_path: Path) -> None:
 
 def test_an_unrated_mimic_leader_gets_the_guess_an_arm_joint_gets(tmp_path: Path) -> None:
     """Romeo's hands: a <mimic> leader rated effort 0 and velocity 0 becomes a channel, which needs a rating: init
-    guesses it from the loads it carries, its followers' included, and writes it as joints.NAME quirks (seeded
-    fault: _rate_leaders left out: 'joint hand leads <mimic> joints, so it becomes a channel: it needs ...')."""
+    guesses it from the loads it carries, its followers' and the armature init gives them included, and writes it
+    as joints.NAME quirks (seeded faults: _rate_leaders left out: 'joint hand leads <mimic> joints, so it becomes a
+    channel: it needs ...'; the armature left out of the load: 0.044 N m, as left Romeo's hands at home)."""
     unrated = '<limit lower="0" upper="1" effort="0" velocity="0"/>'
     body = link("a", 0.2, 0.1) + joint("hand", "base", "a", limit=unrated, z=0.0) + link("b", 0.1, 0.1)
     body += joint("finger", "a", "b", z=0.1).replace(
@@ -366,7 +379,8 @@ def test_an_unrated_mimic_leader_gets_the_guess_an_arm_joint_gets(tmp_path: Path
     code, stderr, written = init(source)
     assert code == 0, stderr
     guess = written["joints"]["hand"]
-    assert guess["velocity"] == 1.0 and guess["effort"] > 0
+    armature = written["hand"]["joint_armature"] + written["hand"]["coupled_joint_armature"]  # the finger's ratio 1
+    assert guess["velocity"] == 1.0 and guess["effort"] >= MIN_ACCELERATION * armature
     model = model_of(source.with_suffix(".yaml"))
     assert model.nu == 1 and model.neq == 1 and model.actuator_forcerange[0][1] == guess["effort"]
 
