@@ -123,6 +123,23 @@ def _blocking(
     return [f"{a}/{b} (on the way)" for _, (a, b) in crossed]
 
 
+def _linkage(
+    model: Any, moving: set[int], before: set[tuple[str, str]], touched: dict[tuple[str, str], float]
+) -> list[tuple[str, str]]:
+    """The new pairs a stroke touched whose bodies both move with the joint, deepest first: parts of one linkage,
+    which a URDF draws as a chain whose collision shapes may meet where the real parts pass each other (Talos'
+    grippers: inner_double_link and fingertip_3_link)."""
+    names = {model.body(b).name for b in moving}
+    return [pair for _, pair in sorted((d, p) for p, d in touched.items() if p not in before and set(p) <= names)]
+
+
+def _exclude_hint(pairs: list[tuple[str, str]]) -> str:
+    if not pairs:
+        return ""
+    listed = ", ".join(f"[{a}, {b}]" for a, b in pairs)
+    return f" (parts that move with it: if they pass each other on the real robot, add collision.exclude: [{listed}])"
+
+
 def _effort_bound(model: Any, data: Any, joint: int, actuator: int) -> str:
     """Why a joint at rest short of its goal is where its drive's force limit leaves it: gravity's torque there (with
     the joint's friction) reaches EFFORT_BOUND of the limit (Talos' arm_left_2_joint, rated 22.32 N m, meets 22.6 N m
@@ -249,7 +266,9 @@ class _Strokes:
             touched = _stroke(model, data, motion, goal, tol)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                miss = _Miss(name, label, goal, q, (low, high), tol, _blocking(model, data, moving, before, touched))
+                blockers = _blocking(model, data, moving, before, touched)
+                linkage = _linkage(model, moving, before, touched)
+                miss = _Miss(name, label, goal, q, (low, high), tol, blockers, linkage)
                 self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))
@@ -292,7 +311,7 @@ class _Strokes:
             entry["own_robot"] = True
             notes.append(text + f", its range crosses its own robot: {blockers[0]} (not a failure)")
         else:
-            problems.append(text + f", blocked by {blockers[0]}")
+            problems.append(text + f", blocked by {blockers[0]}" + _exclude_hint(miss.linkage))
 
 
 @dataclass(frozen=True)
@@ -306,3 +325,4 @@ class _Miss:
     range: tuple[float, float]
     tol: float
     blockers: list[str]  # body pairs in contact, deepest new first
+    linkage: list[tuple[str, str]]  # the new pairs touched whose bodies both move with the joint

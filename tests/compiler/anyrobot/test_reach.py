@@ -212,6 +212,37 @@ def test_a_tag_spread_over_lines_is_named_at_its_line(tmp_path: Path) -> None:
     assert code == 2 and f"{source}:4: joint pendulum: its limits give it no range" in stderr, stderr
 
 
+def test_a_linkage_meeting_itself_names_the_exclude_that_works_around_it(tmp_path: Path) -> None:
+    """Talos' grippers: a channel whose own parts' collision shapes meet (a and d, both moved by the channel through
+    its three followers). range_of_motion fails naming the pair and the collision.exclude that lets it pass; with it,
+    the channel reaches its end (seeded fault: _linkage returning nothing: no setting named)."""
+    from svhdesc.validate.options import Options
+    from svhdesc.validate.pair import load_pair
+    from svhdesc.validate.range_of_motion import check_range_of_motion
+
+    follower = '<limit lower="-3" upper="3" effort="5" velocity="2"/><mimic joint="drive"/>'
+    body = link("a", 0.1) + joint("drive", "base", "a", limit='<limit lower="0" upper="2" effort="5" velocity="2"/>')
+    for parent, child, name in (("a", "b", "f1"), ("b", "c", "f2"), ("c", "d", "f3")):
+        body += link(child, 0.1) + joint(name, parent, child, limit=follower)
+    body = re.sub(r"<visual>(.*?)</visual>", r"<visual>\1</visual><collision>\1</collision>", body)
+    source = urdf(tmp_path, "fold", body)
+    config, out = source.with_suffix(".yaml"), tmp_path / "out"
+    assert init(source)[0] == 0
+
+    def motion() -> object:
+        exported(config, "{robot}.urdf", "{robot}.xml", into=out)
+        pair = load_pair(out / "arm.urdf", out / "arm.xml", config_path=config)
+        (check,) = check_range_of_motion(pair, Options())
+        return check
+
+    check = motion()
+    assert check.status == "fail" and "drive stops at" in check.detail, check.detail
+    assert "blocked by a/d (parts that move with it" in check.detail and "collision.exclude: [[a, d]]" in check.detail
+    config.write_text(config.read_text().replace("collision:\n", "collision:\n  exclude: [[a, d]]\n", 1))
+    check = motion()
+    assert check.status == "pass" and check.data["channels"]["drive"]["fraction"] > 0.99, check.detail
+
+
 def _gravity_at_home(model: mujoco.MjModel) -> np.ndarray:
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
