@@ -37,6 +37,7 @@ MAX_TIME = 3.0  # s per stroke (the slowest channel, 1 rad at 1 rad/s, settles i
 MIN_SPEED = 2.0  # ... plus the stroke's length at this speed (rad/s, m/s; a slower drive's own: drive_speed)
 SETTLED_SPEED = 1e-3  # rad/s: a stroke ends early once the channels (an arm joint) are this still near the goal ...
 STALLED = 0.2  # s ... or this long short of it
+SWEEP_SAMPLES = 41  # positions over a blocked channel's range where its own parts are looked for meeting
 EFFORT_BOUND = 0.95  # of a drive's force limit: gravity and friction that large stop an arm joint where the source's
 # rating stops it (a note, not a failure)
 
@@ -131,6 +132,27 @@ def _linkage(
     grippers: inner_double_link and fingertip_3_link)."""
     names = {model.body(b).name for b in moving}
     return [pair for _, pair in sorted((d, p) for p, d in touched.items() if p not in before and set(p) <= names)]
+
+
+def _sweep(model: Any, home: int, motion: _Motion, followers: list[Any], span: tuple[float, float]) -> dict:
+    """The body pairs that penetrate anywhere over the joint's range, the joint and its followers placed by their
+    polynomials from home (positions and collision only, no dynamics): every part of a linkage that would block it,
+    not only the first its stroke met (Talos' grippers meet on two pairs each)."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    if home >= 0:
+        mujoco.mj_resetDataKeyframe(model, data, home)
+    found: dict[tuple[str, str], float] = {}
+    for q in np.linspace(span[0], span[1], SWEEP_SAMPLES):
+        data.qpos[motion.adr] = q
+        for e in followers:
+            data.qpos[model.jnt_qposadr[model.joint(e.joint).id]] = float(polyval(e.coeffs, q))
+        mujoco.mj_fwdPosition(model, data)
+        for pair, depth in _touching(model, data, motion.bodies).items():
+            if depth < 0:
+                found[pair] = min(found.get(pair, 0.0), depth)
+    return found
 
 
 def _exclude_hint(pairs: list[tuple[str, str]]) -> str:
@@ -262,12 +284,15 @@ class _Strokes:
             (("start", low), ("upper", high), ("lower", low)) if notes is None else (("start", low), ("upper", high))
         )
         motion = _Motion(actuator, adr, self.hand_dofs if notes is None else dofs, moving)
+        swept: dict | None = None
         for label, goal in strokes:
             touched = _stroke(model, data, motion, goal, tol)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
                 blockers = _blocking(model, data, moving, before, touched)
-                linkage = _linkage(model, moving, before, touched)
+                if notes is None and swept is None:  # a channel: every pair of its own parts over its range
+                    swept = _sweep(model, self.home, motion, followers, (low, high))
+                linkage = _linkage(model, moving, before, {**(swept or {}), **touched})
                 miss = _Miss(name, label, goal, q, (low, high), tol, blockers, linkage)
                 self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:

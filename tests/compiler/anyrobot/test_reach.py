@@ -213,16 +213,18 @@ def test_a_tag_spread_over_lines_is_named_at_its_line(tmp_path: Path) -> None:
 
 
 def test_a_linkage_meeting_itself_names_the_exclude_that_works_around_it(tmp_path: Path) -> None:
-    """Talos' grippers: a channel whose own parts' collision shapes meet (a and d, both moved by the channel through
-    its three followers). range_of_motion fails naming the pair and the collision.exclude that lets it pass; with it,
-    the channel reaches its end (seeded fault: _linkage returning nothing: no setting named)."""
+    """Talos' grippers: a channel whose own parts' collision shapes meet (a five-link fold, all moved by the channel
+    through its four followers: the stroke stops on a/e). range_of_motion fails naming the pair and the
+    collision.exclude entries that let it pass, every pair of its own parts that meets over its range (a/d, a/e,
+    b/e); with them, the channel reaches its end (seeded faults: _linkage returning nothing: no setting named;
+    _sweep returning nothing: only the pair the stroke met, and the channel still blocked with it excluded)."""
     from svhdesc.validate.options import Options
     from svhdesc.validate.pair import load_pair
     from svhdesc.validate.range_of_motion import check_range_of_motion
 
     follower = '<limit lower="-3" upper="3" effort="5" velocity="2"/><mimic joint="drive"/>'
     body = link("a", 0.1) + joint("drive", "base", "a", limit='<limit lower="0" upper="2" effort="5" velocity="2"/>')
-    for parent, child, name in (("a", "b", "f1"), ("b", "c", "f2"), ("c", "d", "f3")):
+    for parent, child, name in (("a", "b", "f1"), ("b", "c", "f2"), ("c", "d", "f3"), ("d", "e", "f4")):
         body += link(child, 0.1) + joint(name, parent, child, limit=follower)
     body = re.sub(r"<visual>(.*?)</visual>", r"<visual>\1</visual><collision>\1</collision>", body)
     source = urdf(tmp_path, "fold", body)
@@ -237,8 +239,10 @@ def test_a_linkage_meeting_itself_names_the_exclude_that_works_around_it(tmp_pat
 
     check = motion()
     assert check.status == "fail" and "drive stops at" in check.detail, check.detail
-    assert "blocked by a/d (parts that move with it" in check.detail and "collision.exclude: [[a, d]]" in check.detail
-    config.write_text(config.read_text().replace("collision:\n", "collision:\n  exclude: [[a, d]]\n", 1))
+    assert "blocked by a/e (parts that move with it" in check.detail, check.detail
+    listed = re.search(r"collision.exclude: \[(.*)\]\)", check.detail).group(1)  # type: ignore[union-attr]
+    assert set(re.findall(r"\[(\w), (\w)\]", listed)) == {("a", "d"), ("a", "e"), ("b", "e")}, listed
+    config.write_text(config.read_text().replace("collision:\n", f"collision:\n  exclude: [{listed}]\n", 1))
     check = motion()
     assert check.status == "pass" and check.data["channels"]["drive"]["fraction"] > 0.99, check.detail
 
