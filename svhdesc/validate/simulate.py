@@ -16,6 +16,10 @@ from svhdesc.validate.report import FAIL, Check, fmt, not_run, skipped, verdict
 DURATION = 10.0  # s of simulated time
 TARGET_PERIOD = 0.05  # s between new random targets (the full ctrlrange: a hard test of the couplings)
 COUPLING_TOL = 1e-3  # rad
+ADVICE = (  # what helps a model MuJoCo cannot integrate (icub's light arms against elliptic-cone contacts: the first)
+    "simulation.cone: pyramidal where contacts are involved, a smaller simulation.timestep, a lower kp (arm.kp, "
+    "hand.kp) or joints.NAME.effort on that joint"
+)
 
 
 def warning_counts(data: object) -> dict[str, int]:
@@ -43,12 +47,15 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
     model = pair.model
     data, rng, low, high = random_target_start(model, options.seed)
     tracking = _Tracking.of(model, couplings(model))
-    nan_at = _run_random_targets(model, data, rng, (low, high), tracking)
+    diverged: list[tuple[float, str]] = []  # MuJoCo's first bad acceleration: when, and at which joint
+    nan_at = _run_random_targets(model, data, rng, (low, high), tracking, diverged)
     warnings = warning_counts(data)
     ok = not warnings and nan_at is None
     detail = []
     if warnings:
         detail.append("warnings " + ", ".join(f"{k} x{v}" for k, v in warnings.items()))
+    if diverged:
+        detail.append(f"diverged at t = {diverged[0][0]:.3f} s at joint {diverged[0][1]}: {ADVICE}")
     if nan_at is not None:
         detail.append(f"NaN at t = {nan_at:.3f} s")
     measured = f"{sum(warnings.values())} warnings, {'NaN' if nan_at is not None else 'no NaN'}"
@@ -63,6 +70,7 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
             {
                 "warnings": warnings,
                 "nan_at_s": nan_at,
+                "diverged": {"t": diverged[0][0], "joint": diverged[0][1]} if diverged else None,
                 "simulated_s": DURATION,
                 "timestep": model.opt.timestep,
                 "seed": options.seed,
@@ -104,17 +112,29 @@ class _Tracking:
 
 
 def _run_random_targets(
-    model: Any, data: Any, rng: np.random.Generator, ranges: tuple[np.ndarray, np.ndarray], tracking: _Tracking
+    model: Any,
+    data: Any,
+    rng: np.random.Generator,
+    ranges: tuple[np.ndarray, np.ndarray],
+    tracking: _Tracking,
+    diverged: list[tuple[float, str]],
 ) -> float | None:
-    """DURATION s of random targets, tracking the couplings every step; when the state turned NaN, if it did."""
+    """DURATION s of random targets, tracking the couplings every step; when the state turned NaN, if it did.
+    ``diverged`` gets the time and joint of MuJoCo's first bad-acceleration warning (it resets the state then, so
+    the time is read before the step)."""
     import mujoco
 
     low, high = ranges
     period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
+    badqacc = int(mujoco.mjtWarning.mjWARN_BADQACC)
     for step in range(int(round(DURATION / model.opt.timestep))):
         if step % period == 0:
             data.ctrl[:] = rng.uniform(low, high)
+        when = float(data.time)
         mujoco.mj_step(model, data)
+        if not diverged and data.warning[badqacc].number:
+            dof = int(data.warning[badqacc].lastinfo)
+            diverged.append((when, model.joint(int(model.dof_jntid[dof])).name if 0 <= dof < model.nv else "?"))
         if not all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc)):
             return step * model.opt.timestep
         if len(tracking.equalities):

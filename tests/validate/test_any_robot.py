@@ -30,6 +30,7 @@ from svhdesc.validate.load_limits import LOAD_FACTOR, LOAD_MAX, check_load_limit
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair, load_pair
 from svhdesc.validate.range_of_motion import check_range_of_motion, drive_speed
+from svhdesc.validate.simulate import check_simulation
 from tests.support import REPO, run_cli
 
 ARM = REPO / "tests" / "data" / "arm3" / "arm3.xml"
@@ -219,6 +220,18 @@ def test_bad_tip_load_is_one_error_line(tmp_path: Path) -> None:
     lines = result.stderr.strip().splitlines()
     assert result.returncode == 2 and len(lines) == 1, result.stderr
     assert lines[0].startswith("error:") and "validate.tip_load" in lines[0], lines[0]
+
+
+def test_simulate_names_when_and_where_it_diverged_and_what_helps(tmp_path: Path) -> None:
+    """Gravity 1e12 m/s^2: the random-target run diverges; the detail says when, at which joint, and the settings
+    that help (seeded fault: the diverged list left empty: 'warnings mjWARN_BADQACC x1' alone, as icub's said)."""
+    pair = arm(tmp_path, lambda t: t.find("option").set("gravity", "0 0 -1e12"))
+    check = next(c for c in check_simulation(pair, OPTIONS) if c.name == "simulate")
+    assert check.status == "fail" and "mjWARN_BADQACC" in check.detail, check.detail
+    diverged = check.data["diverged"]
+    assert diverged is not None and diverged["joint"] in ("shoulder", "elbow", "wrist", "finger_slide"), diverged
+    assert f"diverged at t = {diverged['t']:.3f} s at joint {diverged['joint']}" in check.detail
+    assert "simulation.cone: pyramidal" in check.detail and "joints.NAME.effort" in check.detail
 
 
 @pytest.mark.skipif(not (SVH / "svh_right.xml").is_file(), reason="generated/svh_right is not built")
