@@ -45,7 +45,9 @@ CHANNELS = [
 def _client(node: dict[str, Any]) -> Any:
 
     client = simple_action_client(f"/{HAND}/follow_joint_trajectory", node["msgs"].FollowJointTrajectoryAction)
-    assert client.wait_for_server(node["rospy"].Duration(30))
+    # Simulated seconds. Made right after an abuse, the client connects while actionlib still publishes the abuse's
+    # goals in every status message (for 5 s after each ends): on a busy machine 30 s was once not enough.
+    assert client.wait_for_server(node["rospy"].Duration(120))
     return client
 
 
