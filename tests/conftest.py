@@ -65,8 +65,11 @@ def _needs_session_build(item: pytest.Item) -> bool:
 def pytest_collection_finish(session: pytest.Session) -> None:
     from .support import start_build
 
-    if any(_needs_session_build(item) for item in session.items):
-        start_build(Path(os.environ["SVHDESC_TEST_RUN"]))
+    users = [item for item in session.items if _needs_session_build(item)]
+    if users:
+        # From the sources alone when a slow test uses it (the guard that generated/ is current among them).
+        fresh = any(item.get_closest_marker("slow") for item in users)
+        start_build(Path(os.environ["SVHDESC_TEST_RUN"]), fresh)
 
 
 # Modules (paths under tests/) whose tests take tens of seconds each: engines, grasps held for seconds, Warp, full

@@ -111,8 +111,11 @@ def _build_afresh(out: Path) -> dict[str, int]:
     from svhdesc.compiler.probes.cache import recomputing
 
     config = load_config(REPO / "config" / "svhdesc.yaml")
-    hulls = HullSource(HullCache(default_cache_dir()), force=True)
-    with recomputing(True):
+    fresh = os.environ.get(FRESH_BUILD, "1") == "1"
+    hulls = HullSource(HullCache(default_cache_dir()), force=fresh)
+    if not fresh:
+        hulls.seed_from_outputs(sorted(p for p in (REPO / "generated").iterdir() if p.is_dir()))
+    with recomputing(fresh):
         builder.build(config, list(config.variants), out, {}, hulls)
     return dict(hulls.counts)
 
@@ -120,9 +123,13 @@ def _build_afresh(out: Path) -> dict[str, int]:
 BUILD_DONE = "build.done"
 BUILD_COUNTS = "build.counts.json"
 BUILD_STARTED = "build.started"  # the background build's process id, written once
+# "0": the session build as `svhdesc build` makes it (hulls and sampled results seeded from generated/), for a run
+# without a slow test that uses it (the fast set: its tests read the outputs, and the slow guard in
+# tests/compiler/pipeline/test_check.py, which every full run holds, proves generated/ is what the sources make).
+FRESH_BUILD = "SVHDESC_TEST_FRESH_BUILD"
 
 
-def start_build(run: Path) -> None:
+def start_build(run: Path, fresh: bool = True) -> None:
     """``built()`` in a background process, once per run: it takes the lock first, so a test that needs the build
     waits on it instead of starting its own."""
     if (run / BUILD_DONE).exists():
@@ -135,6 +142,7 @@ def start_build(run: Path) -> None:
         process = subprocess.Popen(
             [sys.executable, "-c", "from tests.support import built; built()"],
             cwd=REPO,
+            env={**os.environ, FRESH_BUILD: "1" if fresh else "0"},
             stdout=log,
             stderr=subprocess.STDOUT,
             start_new_session=True,
