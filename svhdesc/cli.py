@@ -390,7 +390,13 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     show_default=True,
     help="Random configurations for the kinematics check.",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of every random draw.")
+@click.option(
+    "--seed",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Seed of every random draw (0: simulate's run is the one the build steps every model through).",
+)
 @click.option(
     "--vendor-meshes",
     type=click.Path(path_type=Path),

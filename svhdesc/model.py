@@ -411,6 +411,92 @@ def random_target_start(model: Any) -> tuple[Any, np.ndarray, np.ndarray]:
     return data, low, high
 
 
+# The random-target run: validate's simulate check, and the build's trial run, which refuses a model it finds
+# diverging, so that validate's default run (seed 0) never finds a divergence in a model the build passed.
+RANDOM_TARGET_SECONDS = 10.0  # s of simulated time
+RANDOM_TARGET_PERIOD = 0.05  # s between new random targets (the full ctrlrange: a hard test of the couplings)
+RANDOM_TARGET_SEED = 0  # validate's default --seed: the build runs the same draws
+DIVERGENCE_ADVICE = (  # what helps a model MuJoCo cannot integrate (icub's light arms against elliptic-cone contacts)
+    "simulation.cone: pyramidal where contacts are involved, a smaller simulation.timestep, a lower kp (arm.kp, "
+    "hand.kp) or joints.NAME.effort on that joint"
+)
+
+
+@dataclass(frozen=True)
+class Divergence:
+    """Where MuJoCo first found the state bad (a bad acceleration, velocity or position, or a non-finite state):
+    the time before that step, the joint, and the contacts then active."""
+
+    time: float
+    joint: str
+    contacts: int
+
+    def __str__(self) -> str:
+        where = f"at t = {self.time:.3f} s at joint {self.joint} ({self.contacts} contacts)"
+        return f"diverged {where}: {DIVERGENCE_ADVICE}"
+
+
+@dataclass
+class RandomTargetRun:
+    """What a random-target run found: MuJoCo's warnings (name -> count), when the state turned non-finite, and the
+    first divergence."""
+
+    warnings: dict[str, int]
+    nan_at: float | None = None
+    diverged: Divergence | None = None
+
+
+def run_random_targets(model: Any, seed: int, each_step: Any = None, until_diverged: bool = False) -> RandomTargetRun:
+    """RANDOM_TARGET_SECONDS s from ``home``: a new target drawn uniformly across each actuator's range (seeded)
+    every RANDOM_TARGET_PERIOD s. ``each_step(data)`` runs after every step; the run ends at a non-finite state, or
+    at the first divergence when ``until_diverged``. (MuJoCo resets the state when it warns, so the time, the
+    speeds and the contacts are read before each step.)"""
+    import mujoco
+
+    data, low, high = random_target_start(model)
+    rng, period = np.random.default_rng(seed), max(1, round(RANDOM_TARGET_PERIOD / model.opt.timestep))
+    run = RandomTargetRun({})
+    for step in range(round(RANDOM_TARGET_SECONDS / model.opt.timestep)):
+        if step % period == 0:
+            data.ctrl[:] = rng.uniform(low, high)
+        before = (float(data.time), np.abs(data.qvel), int(data.ncon))
+        mujoco.mj_step(model, data)
+        finite = all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc))
+        if run.diverged is None:
+            run.diverged = _divergence(model, data, finite, before)
+        if not finite:
+            run.nan_at = step * model.opt.timestep
+        if run.nan_at is not None or (until_diverged and run.diverged is not None):
+            break
+        if each_step is not None:
+            each_step(data)
+    run.warnings = warning_counts(data)
+    return run
+
+
+def _divergence(model: Any, data: Any, finite: bool, before: tuple[float, np.ndarray, int]) -> Divergence | None:
+    """The divergence this step found, if any: the joint MuJoCo names (a bad acceleration or velocity), else the
+    fastest one before the step."""
+    import mujoco
+
+    warned = [data.warning[int(w)] for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL)]
+    if finite and not data.warning[int(mujoco.mjtWarning.mjWARN_BADQPOS)].number and not any(w.number for w in warned):
+        return None
+    when, speeds, contacts = before
+    dofs = [int(w.lastinfo) for w in warned if w.number and 0 <= w.lastinfo < model.nv]
+    dof = dofs[0] if dofs else int(np.argmax(speeds)) if model.nv else -1
+    return Divergence(when, model.joint(int(model.dof_jntid[dof])).name if dof >= 0 else "?", contacts)
+
+
+def warning_counts(data: Any) -> dict[str, int]:
+    """MuJoCo's warnings so far: name -> count, those that occurred."""
+    import mujoco
+
+    members = mujoco.mjtWarning.__members__.items()
+    counts = {name: int(data.warning[int(v)].number) for name, v in members if int(v) < len(data.warning)}
+    return {name: n for name, n in counts.items() if n}
+
+
 def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
     """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
     import mujoco

@@ -50,7 +50,7 @@ class Experiment:
 def run_experiment(pair: ModelPair) -> Experiment:
     import mujoco
 
-    from svhdesc.validate.simulate import warning_counts
+    from svhdesc.model import warning_counts
 
     model = pair.model
     home, test = shared.keyframes(model)

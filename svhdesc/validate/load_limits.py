@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.model import couplings
+from svhdesc.model import couplings, warning_counts
 from svhdesc.validate.handsim import hand_parts
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import Check, fmt, not_run, skipped, verdict
-from svhdesc.validate.simulate import random_target_start, warning_counts
+from svhdesc.validate.simulate import random_target_start
 
 DURATION = 10.0  # s
 TARGET_PERIOD = 0.05  # s between new random targets

@@ -7,27 +7,13 @@ from typing import Any
 
 import numpy as np
 
-from svhdesc.model import couplings
+from svhdesc.model import RANDOM_TARGET_SECONDS, couplings, run_random_targets
 from svhdesc.model import random_target_start as start
 from svhdesc.validate.options import Options
 from svhdesc.validate.pair import ModelPair
 from svhdesc.validate.report import FAIL, Check, fmt, not_run, skipped, verdict
 
-DURATION = 10.0  # s of simulated time
-TARGET_PERIOD = 0.05  # s between new random targets (the full ctrlrange: a hard test of the couplings)
 COUPLING_TOL = 1e-3  # rad
-ADVICE = (  # what helps a model MuJoCo cannot integrate (icub's light arms against elliptic-cone contacts: the first)
-    "simulation.cone: pyramidal where contacts are involved, a smaller simulation.timestep, a lower kp (arm.kp, "
-    "hand.kp) or joints.NAME.effort on that joint"
-)
-
-
-def warning_counts(data: object) -> dict[str, int]:
-    import mujoco
-
-    members = mujoco.mjtWarning.__members__.items()
-    counts = {name: int(data.warning[int(v)].number) for name, v in members if int(v) < len(data.warning)}
-    return {name: n for name, n in counts.items() if n}
 
 
 def random_target_start(model: Any, seed: int) -> tuple[Any, np.random.Generator, np.ndarray, np.ndarray]:
@@ -37,7 +23,8 @@ def random_target_start(model: Any, seed: int) -> tuple[Any, np.random.Generator
 
 
 def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
-    """Random targets uniformly across each actuator's ctrlrange, a new one every 0.05 s, from a seeded RNG."""
+    """Random targets uniformly across each actuator's ctrlrange, a new one every 0.05 s, from a seeded RNG: the
+    run the build steps every model through with seed 0 (``svhdesc.model.run_random_targets``)."""
     sim_bound, coupling_bound = "compiles, 0 warnings, no NaN", f"<= {COUPLING_TOL:g} rad"
     if pair.model is None:
         return [
@@ -45,21 +32,19 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
             not_run("coupling_tracking", "the MJCF does not compile", coupling_bound),
         ]
     model = pair.model
-    data, rng, low, high = random_target_start(model, options.seed)
     tracking = _Tracking.of(model, couplings(model))
-    diverged: list[tuple[float, str]] = []  # MuJoCo's first bad acceleration: when, and at which joint
-    nan_at = _run_random_targets(model, data, rng, (low, high), tracking, diverged)
-    warnings = warning_counts(data)
+    run = run_random_targets(model, options.seed, tracking.update if len(tracking.equalities) else None)
+    warnings, nan_at, diverged = run.warnings, run.nan_at, run.diverged
     ok = not warnings and nan_at is None
     detail = []
     if warnings:
         detail.append("warnings " + ", ".join(f"{k} x{v}" for k, v in warnings.items()))
-    if diverged:
-        detail.append(f"diverged at t = {diverged[0][0]:.3f} s at joint {diverged[0][1]}: {ADVICE}")
+    if diverged is not None:
+        detail.append(str(diverged))
     if nan_at is not None:
         detail.append(f"NaN at t = {nan_at:.3f} s")
     measured = f"{sum(warnings.values())} warnings, {'NaN' if nan_at is not None else 'no NaN'}"
-    summary = f"{DURATION:g} s at dt {model.opt.timestep:g} s, {model.nu} actuators"
+    summary = f"{RANDOM_TARGET_SECONDS:g} s at dt {model.opt.timestep:g} s, {model.nu} actuators"
     checks = [
         Check(
             "simulate",
@@ -70,8 +55,8 @@ def check_simulation(pair: ModelPair, options: Options) -> list[Check]:
             {
                 "warnings": warnings,
                 "nan_at_s": nan_at,
-                "diverged": {"t": diverged[0][0], "joint": diverged[0][1]} if diverged else None,
-                "simulated_s": DURATION,
+                "diverged": None if diverged is None else {"t": diverged.time, "joint": diverged.joint},
+                "simulated_s": RANDOM_TARGET_SECONDS,
                 "timestep": model.opt.timestep,
                 "seed": options.seed,
             },
@@ -109,37 +94,6 @@ class _Tracking:
         for k in (3, 2, 1, 0):  # Horner
             expected = expected * q + self.coeffs[:, k]
         np.maximum(self.worst, np.abs(data.qpos[self.coupled] - expected), out=self.worst)
-
-
-def _run_random_targets(
-    model: Any,
-    data: Any,
-    rng: np.random.Generator,
-    ranges: tuple[np.ndarray, np.ndarray],
-    tracking: _Tracking,
-    diverged: list[tuple[float, str]],
-) -> float | None:
-    """DURATION s of random targets, tracking the couplings every step; when the state turned NaN, if it did.
-    ``diverged`` gets the time and joint of MuJoCo's first bad-acceleration warning (it resets the state then, so
-    the time is read before the step)."""
-    import mujoco
-
-    low, high = ranges
-    period = max(1, int(round(TARGET_PERIOD / model.opt.timestep)))
-    badqacc = int(mujoco.mjtWarning.mjWARN_BADQACC)
-    for step in range(int(round(DURATION / model.opt.timestep))):
-        if step % period == 0:
-            data.ctrl[:] = rng.uniform(low, high)
-        when = float(data.time)
-        mujoco.mj_step(model, data)
-        if not diverged and data.warning[badqacc].number:
-            dof = int(data.warning[badqacc].lastinfo)
-            diverged.append((when, model.joint(int(model.dof_jntid[dof])).name if 0 <= dof < model.nv else "?"))
-        if not all(np.isfinite(v).all() for v in (data.qpos, data.qvel, data.qacc)):
-            return step * model.opt.timestep
-        if len(tracking.equalities):
-            tracking.update(data)
-    return None
 
 
 def _coupling_check(tracking: _Tracking, nan_at: float | None, bound: str) -> Check:

@@ -362,6 +362,58 @@ def test_the_build_refuses_a_model_whose_servos_diverge_and_builds_a_soft_one(tm
     assert "would grow a disturbance" in problem
 
 
+def _late(tmp_path: Path, kp: float) -> Path:
+    """j1 turns about z; on it j2 tilts a 1 kg rod about y. Tilted (home, j2 = -1.5), the rod gives j1 0.02 kg m^2 of
+    inertia; upright on j1's axis (j2 at its upper limit 0), 1e-6: there j1's servo (kp, undamped) rings faster than
+    the timestep integrates. j2's random targets come within 0.015 rad of 0 first at validate's seed 0's 39th
+    target (t = 1.90 s)."""
+    z = ('<axis xyz="0 1 0"/>', '<axis xyz="0 0 1"/>')
+    body = (
+        link("a", 0.05, 0.1, inertia=1e-7)
+        + joint(
+            "j1", "base", "a", limit='<limit lower="-1e-4" upper="1e-4" effort="100" velocity="1"/>', z=0.0
+        ).replace(*z)
+        + link("b", 1.0, 0.3, inertia=1e-7)
+        + joint("j2", "a", "b", limit='<limit lower="-1.6" upper="0" effort="10000" velocity="1"/>', z=0.1)
+    )
+    source = urdf(tmp_path, "late", body)
+    assert init(source)[0] == 0
+    config = source.with_suffix(".yaml")
+    text = re.sub(r"kp: \[.*\]", f"kp: [{kp}, 50000.0]", config.read_text()).replace(
+        "arm:\n", "arm:\n  dampratio: 0\n", 1
+    )
+    text = re.sub(r"(j1:\n    damping:) .*", r"\1 0.0", text)
+    text = re.sub(r"(j2:\n    damping:) .*", r"\1 100.0", text)
+    config.write_text(re.sub(r"(home:\n    j1: 0.0\n    j2:) .*", r"\1 -1.5", text))
+    return config
+
+
+def test_a_model_that_diverges_late_in_validates_run_is_refused_at_build(tmp_path: Path) -> None:
+    """The build steps the model through validate's simulate run itself (10 s of random targets from home, seed 0),
+    not a shorter trial: a model that diverges only 1.9 s into it (``_late``) is refused with one line naming the
+    time, the joint and the settings that help, the time validate's check finds for the same model; with kp lowered
+    as it says (below what the upright rod's inertia allows), the build passes and so does validate's run (seeded
+    fault: the former trial run, home held 0.5 s then 1 s of targets, as ``diverges``: the model is built, and
+    validate finds it diverging at 1.916 s)."""
+    from svhdesc.validate.options import Options
+    from svhdesc.validate.pair import load_pair
+    from svhdesc.validate.simulate import check_simulation
+
+    config, out = _late(tmp_path, 5.0), tmp_path / "out"
+    error = fails_cleanly(out, "build", "--config", str(config), "--out", str(out), match="validate's simulate run")
+    found = re.search(r"diverged at t = ([\d.]+) s at joint (\w+) \(\d+ contacts\): simulation.cone", error)
+    assert found and 1.5 < float(found.group(1)) < 2.0 and found.group(2) in ("j1", "j2"), error
+    assert "a lower kp (arm.kp, hand.kp)" in error and f"{config}:" in error and not out.exists()
+    soft = _late(tmp_path, 0.01)  # stable even upright (inertia 2e-8): any stiffer servo meets a target close enough
+    exported(soft, "{robot}.urdf", "{robot}.xml", into=out)  # the build's pipeline, its trial run included
+    pair = load_pair(out / "arm.urdf", out / "arm.xml", config_path=soft)
+    assert next(c for c in check_simulation(pair, Options()) if c.name == "simulate").status == "pass"
+    pair.model.actuator_gainprm[0, 0], pair.model.actuator_biasprm[0, 1] = 5.0, -5.0  # the refused servo
+    simulate = next(c for c in check_simulation(pair, Options()) if c.name == "simulate")
+    diverged = simulate.data["diverged"]
+    assert (f"{diverged['t']:.3f}", diverged["joint"]) == found.groups(), simulate.detail
+
+
 def test_a_robot_reaching_below_its_root_gets_a_floor_below_it(tmp_path: Path) -> None:
     """A leg hanging 0.5 m below the root (a quadruped fixed at its trunk, as example-robot-data's bolt): init puts the
     scene's floor 1 cm below it, where a floor at 0 cut through the leg; an arm standing on z = 0 keeps its floor

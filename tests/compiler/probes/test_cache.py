@@ -136,3 +136,24 @@ def test_a_result_rewritten_with_its_digest_is_sampled_again_while_recomputing(t
     with recomputing():
         assert use() == {"njmax": 7} and len(calls) == 2
     assert use() == {"njmax": 7} and len(calls) == 2  # healed
+
+
+def test_the_trial_run_is_stepped_once_per_model(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The build's trial run (validate's 10 s simulate run) is remembered by content: a second build of the same
+    model reads its result, a passing run's included (seeded fault: a passing run stored as null, which the cache
+    reads as no entry: stepped at every build)."""
+    from svhdesc.compiler.decompose.cache import HullCache
+    from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.pipeline import steps
+    from svhdesc.compiler.pipeline.timings import Timings
+    from svhdesc.compiler.probes import stability
+    from svhdesc.core.settings.config import load_config
+
+    monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path / "cache"))
+    stepped: list[object] = []
+    real = stability.diverges
+    monkeypatch.setattr(stability, "diverges", lambda model: stepped.append(real(model)) or stepped[-1])
+    for _ in range(2):
+        hulls = HullSource(HullCache(tmp_path / "hulls"))
+        list(steps.compile_variants(load_config(TESTS / "data" / "mini" / "mini.yaml"), [], {}, hulls, Timings()))
+    assert stepped == [None]
