@@ -43,6 +43,7 @@ def panda(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-
     return folder, result
 
 
+@pytest.mark.slow
 def test_pybullet_panda_builds_from_a_user_config(panda) -> None:  # type: ignore[no-untyped-def]
     folder, result = panda
     assert result.returncode == 0, result.stderr
@@ -56,6 +57,7 @@ def test_pybullet_panda_builds_from_a_user_config(panda) -> None:  # type: ignor
     assert model.body_mass[body] == pytest.approx(1e-4)
 
 
+@pytest.mark.slow
 def test_mass_links_applies_to_a_link_without_geometry(panda) -> None:  # type: ignore[no-untyped-def]
     folder, result = panda
     model = mujoco.MjModel.from_xml_path(str(folder / "out" / "panda" / "panda.xml"))
@@ -68,6 +70,7 @@ def _init(tmp_path: Path, source: Path, *extra: str):  # type: ignore[no-untyped
     return run_cli("init", str(source), "--out", str(tmp_path / "robot.yaml"), *extra)
 
 
+@pytest.mark.slow
 def test_init_then_build_pybullet_panda(tmp_path: Path) -> None:
     result = _init(tmp_path, PANDA)
     assert result.returncode == 0, result.stderr

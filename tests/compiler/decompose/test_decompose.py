@@ -310,6 +310,7 @@ def _extra_file(cache: HullCache, entry: Path, other: Path) -> None:
         (_extra_file, "extra file"),
     ],
 )
+@pytest.mark.slow
 def test_forged_or_extended_entry_is_never_used(
     tmp_path: Path, l_shape: trimesh.Trimesh, annulus: trimesh.Trimesh, forge, problem: str
 ) -> None:
@@ -349,6 +350,7 @@ def test_put_replaces_atomically(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------- parallel
 
 
+@pytest.mark.slow
 def test_parallel_equals_serial(tmp_path: Path, l_shape: trimesh.Trimesh, annulus: trimesh.Trimesh) -> None:
     coarse = DecompParams.from_mapping({**_fast(), "threshold": 0.2, "max_convex_hull": 3})
     jobs = [

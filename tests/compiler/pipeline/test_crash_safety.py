@@ -232,6 +232,7 @@ def test_sigkill_at_random_moments_never_leaves_a_partial_variant(tmp_path: Path
     assert {complete(out / "mini"), complete(out / "mini_1")} == {f"{kp:g}"}
 
 
+@pytest.mark.slow
 def test_a_full_cache_warns_once_and_the_build_goes_on(tmp_path: Path, mini: Callable[..., Path]) -> None:
     params = "{mode: decompose, params: {threshold: 0.1, max_convex_hull: 2, resolution: 500}}"
     root = mini(variants=1, collision=params)
@@ -290,6 +291,7 @@ def test_sigkill_at_every_moment_of_a_build_without_rename_exchange(tmp_path: Pa
         assert sorted(p.name for p in out.iterdir()) == ["mini", "mini_1"]
 
 
+@pytest.mark.slow
 def test_a_killed_build_s_staging_folder_goes_even_when_all_is_up_to_date(
     tmp_path: Path, mini: Callable[..., Path]
 ) -> None:

@@ -56,6 +56,7 @@ def shrunk(mesh: trimesh.Trimesh, factor: float) -> trimesh.Trimesh:
     return moved
 
 
+@pytest.mark.slow
 def test_check_decomposes_afresh_unless_it_trusts_the_cache(tmp_path: Path, decomposed: Path) -> None:
     """Seeded fault: --check without --trust-cache reading the cache (HullSource force off) passes the forgery."""
     cache, clean, out = tmp_path / "cache", tmp_path / "clean", tmp_path / "out"
@@ -81,6 +82,7 @@ def test_trust_cache_goes_with_check_only(tmp_path: Path, decomposed: Path) -> N
     assert code == 2 and stderr.startswith("error: --trust-cache goes with --check"), stderr
 
 
+@pytest.mark.slow
 def test_force_takes_hulls_from_out_only_if_they_fit(tmp_path: Path, decomposed: Path) -> None:
     """A hull of --out replaced by one twice its size, its manifest hash rewritten, and the cache emptied so that
     the out's hulls are the only seed: --force warns once and decomposes again (seeded fault: HullSource._seeded

@@ -233,6 +233,7 @@ def test_authored_mesh_is_closed_light_and_symmetric(path: Path):
         assert distance.max() < 1e-9
 
 
+@pytest.mark.slow
 def test_authoring_script_reproduces_the_committed_meshes(tmp_path: Path):
     result = subprocess.run(
         [sys.executable, str(REPO / "tools" / "author_meshes.py"), "--out", str(tmp_path)],
