@@ -104,7 +104,32 @@ def broadphase_candidates(
     above1 = (off * normal1).sum(axis=2) <= r2[rows] + margin[rows]
     above2 = (-off * normal2).sum(axis=2) <= r1[rows] + margin[rows]
     hits = (np.where(r1[rows] == 0, above1, False) | np.where(r2[rows] == 0, above2, False)).sum(axis=1)
-    solid = np.flatnonzero((r1 > 0) & (r2 > 0))
+    step, pair = _near_bodies(model, body_frames, pairs, margin)
+    # Flat (state, geom) indices: one gather per array instead of two-dimensional fancy indexing.
+    ngeom = model.ngeom
+    at1, at2 = step * ngeom + g1[pair], step * ngeom + g2[pair]
+    flat_pos, flat_mat = xpos.reshape(-1, 3), xmat.reshape(-1, 9)
+    offset = flat_pos[at2] - flat_pos[at1]
+    keep = (offset * offset).sum(axis=1) <= reach[pair] * reach[pair]
+    step, pair, at1, at2 = step[keep], pair[keep], at1[keep], at2[keep]
+    boxes = _boxes_overlap(
+        model,
+        (flat_pos[at1], flat_mat[at1]),
+        (flat_pos[at2], flat_mat[at2]),
+        g1[pair],
+        g2[pair],
+        margin[pair],
+    )
+    return hits + np.bincount(step[boxes], minlength=len(hits))
+
+
+def _near_bodies(
+    model: Any, body_frames: tuple[np.ndarray, np.ndarray], pairs: np.ndarray, margin: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(state, row of ``pairs``) for every solid pair whose bodies' spheres (``body_spheres``) overlap: the body
+    pairs are tested once per state, and only the near ones expand to their geom pairs."""
+    g1, g2 = pairs[:, 0], pairs[:, 1]
+    solid = np.flatnonzero((model.geom_rbound[g1] > 0) & (model.geom_rbound[g2] > 0))
     b1, b2 = model.geom_bodyid[g1[solid]], model.geom_bodyid[g2[solid]]
     body_pairs, index = np.unique(b1 * model.nbody + b2, return_inverse=True)
     first, second = np.divmod(body_pairs, model.nbody)
@@ -113,20 +138,14 @@ def broadphase_candidates(
     body_xpos, body_xmat = body_frames
     middle = body_xpos + np.einsum("tbij,bj->tbi", body_xmat.reshape(*body_xmat.shape[:2], 3, 3), centre)
     apart = middle[:, second] - middle[:, first]
-    step, row = np.nonzero(((apart * apart).sum(axis=2) <= slack * slack)[:, index])
-    pair = solid[row]
-    offset = xpos[step, g2[pair]] - xpos[step, g1[pair]]
-    keep = (offset * offset).sum(axis=1) <= reach[pair] * reach[pair]
-    step, pair = step[keep], pair[keep]
-    boxes = _boxes_overlap(
-        model,
-        (xpos[step, g1[pair]], xmat[step, g1[pair]]),
-        (xpos[step, g2[pair]], xmat[step, g2[pair]]),
-        g1[pair],
-        g2[pair],
-        margin[pair],
-    )
-    return hits + np.bincount(step[boxes], minlength=len(hits))
+    step, near = np.nonzero((apart * apart).sum(axis=2) <= slack * slack)
+    # The solid rows grouped by body pair (CSR): each near body pair brings its own rows.
+    grouped = np.argsort(index, kind="stable")
+    count = np.bincount(index, minlength=len(body_pairs))
+    start = np.cumsum(count) - count
+    sizes = count[near]
+    within = np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    return np.repeat(step, sizes), solid[grouped[np.repeat(start[near], sizes) + within]]
 
 
 def _boxes_overlap(
@@ -138,17 +157,20 @@ def _boxes_overlap(
     margin: np.ndarray,
 ) -> np.ndarray:
     """Per row, whether oriented bounding boxes (geom_aabb in each geom frame) overlap along the six face normals;
-    row n pairs geoms g1[n] and g2[n], placed at frame1[n] and frame2[n] (xpos, xmat)."""
-    pos1, pos2 = frame1[0], frame2[0]
+    row n pairs geoms g1[n] and g2[n], placed at frame1[n] and frame2[n] (xpos, xmat). Along a face normal of one
+    box, that box reaches its own half size and the other the sum of its half sizes weighted by |mat1^T mat2|."""
     mat1, mat2 = frame1[1].reshape(-1, 3, 3), frame2[1].reshape(-1, 3, 3)
     aabb1, aabb2 = model.geom_aabb[g1].reshape(-1, 2, 3), model.geom_aabb[g2].reshape(-1, 2, 3)
-    centre1 = np.einsum("nij,nj->ni", mat1, aabb1[:, 0]) + pos1
-    centre2 = np.einsum("nij,nj->ni", mat2, aabb2[:, 0]) + pos2
-    axes = np.concatenate([mat1, mat2], axis=2)  # n x 3 x 6: the candidate separating axes
-    gap = np.abs(np.einsum("ni,nik->nk", centre2 - centre1, axes))
-    radius1 = np.abs(np.einsum("nij,nik->njk", mat1, axes) * aabb1[:, 1, :, None]).sum(axis=1)
-    radius2 = np.abs(np.einsum("nij,nik->njk", mat2, axes) * aabb2[:, 1, :, None]).sum(axis=1)
-    return (radius1 + radius2 + margin[:, None] >= gap).all(axis=1)
+    half1, half2 = aabb1[:, 1], aabb2[:, 1]
+    apart = (
+        np.matmul(mat2, aabb2[:, 0, :, None])[..., 0] + frame2[0] - np.matmul(mat1, aabb1[:, 0, :, None])[..., 0]
+    ) - frame1[0]
+    turn = np.abs(np.matmul(mat1.transpose(0, 2, 1), mat2))  # |R|, R[j, k] = axis j of box 1 . axis k of box 2
+    gap1 = np.abs(np.matmul(apart[:, None, :], mat1)[:, 0])  # along box 1's axes
+    gap2 = np.abs(np.matmul(apart[:, None, :], mat2)[:, 0])
+    reach1 = half1 + np.matmul(turn, half2[..., None])[..., 0] + margin[:, None]
+    reach2 = np.matmul(half1[:, None, :], turn)[:, 0] + half2 + margin[:, None]
+    return (reach1 >= gap1).all(axis=1) & (reach2 >= gap2).all(axis=1)
 
 
 def cached_capacities(scene_xml: bytes, model_name: str, model_xml: bytes, assets: Path) -> Capacities:
