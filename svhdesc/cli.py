@@ -259,7 +259,8 @@ def _build_options(jobs: int, check: bool, trust_cache: bool) -> None:
     multiple=True,
     metavar="NAME.KEY=VALUE",
     help="A quirk of one joint, as joints.NAME.KEY of the config (mimic=drop, mimic=LEADER, effort=, velocity=, "
-    "lower=, upper=, damping=, friction=): applied to the source and written into the config.",
+    "lower=, upper=, damping=, friction=, type=continuous|fixed, servo=velocity): applied to the source and "
+    "written into the config.",
 )
 @_friendly
 def init_command(source: Path, out: Path | None, packages: tuple[str, ...], joints: tuple[str, ...]) -> None:
@@ -379,8 +380,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME[,NAME]",
     help="Run only these checks: simulate, coupling_tracking, coupling_spec, urdfdom, yourdfpy, sdformat, "
     "kinematics, mass_budget, inertia, min_mass, mass_agreement, limits, transmissions, semantics, load_limits, "
-    "self_collision, gravity_hold, collision_fidelity, range_of_motion, contact_stability, fingertip_force, grasps, "
-    "batch; or groups: "
+    "self_collision, gravity_hold, collision_fidelity, range_of_motion, velocity_tracking, contact_stability, "
+    "fingertip_force, grasps, batch; or groups: "
     "parsers, mass, coupling, margins, fidelity. Default: all.",
 )
 @click.option(

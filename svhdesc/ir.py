@@ -120,7 +120,8 @@ class Coupling:
 
 @dataclass(frozen=True)
 class Actuator:
-    """A position-controlled joint (hand channel or arm joint)."""
+    """A servo on a joint (hand channel or arm joint): a position servo, or a continuous joint's velocity servo
+    (``kind`` velocity: ``lower``/``upper`` its commanded velocity range, ``kp`` its velocity gain kv)."""
 
     name: str
     joint: str
@@ -130,6 +131,11 @@ class Actuator:
     kp: float
     dampratio: float = 1.0
     limited: bool = True  # False: a position servo without limits (a continuous joint), ctrl not clamped
+    kind: str = "position"  # or "velocity" (joints.NAME.servo)
+
+    @property
+    def velocity(self) -> bool:
+        return self.kind == "velocity"
 
 
 @dataclass(frozen=True)

@@ -150,6 +150,13 @@ ROS2_FORWARD_TYPE = "position_controllers/JointGroupPositionController"
 ROS2_JTC_TYPE = "joint_trajectory_controller/JointTrajectoryController"
 
 
+# A continuous joint's velocity servo (joints.NAME.servo: velocity) gets forward_command_controller's velocity
+# group, running (no other controller claims those joints), in ROS 1 and ROS 2 alike, as ros2_control's demos name
+# it; the trajectory and position controllers leave those joints out.
+VELOCITY_SERVO_CONTROLLER = "forward_velocity_controller"
+VELOCITY_SERVO_TYPE = "velocity_controllers/JointGroupVelocityController"
+
+
 def ros2_hand_forward_controller(hand_controller: str, with_arm: bool) -> str:
     """The hand's forward position controller: ``forward_position_controller``, ``right_hand_forward_...`` on an arm."""
     return f"{hand_controller}_{ROS2_FORWARD_CONTROLLER}" if with_arm else ROS2_FORWARD_CONTROLLER
@@ -497,18 +504,35 @@ def warning_counts(data: Any) -> dict[str, int]:
     return {name: n for name, n in counts.items() if n}
 
 
+def velocity_servos(model: Any) -> set[str]:
+    """The joints driven by a velocity servo (force = kv (ctrl - qvel): a bias on the velocity, none on the
+    position), not a position servo."""
+    import mujoco
+
+    joint = int(mujoco.mjtTrn.mjTRN_JOINT)
+    return {
+        model.joint(int(model.actuator_trnid[a, 0])).name
+        for a in range(model.nu)
+        if int(model.actuator_trntype[a]) == joint
+        and model.actuator_biasprm[a, 1] == 0
+        and model.actuator_biasprm[a, 2] < 0
+    }
+
+
 def actuated_joints(model: Any) -> dict[str, tuple[float, float]]:
-    """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited)."""
+    """Joint name -> commanded range of the actuator driving it (joint range if not ctrllimited); a velocity
+    servo's joint: its own range (any angle for a continuous joint), not the velocities commanded."""
     import mujoco
 
     # Compare as ints: numpy scalars and MuJoCo's enums do not meet in a tuple's `in`.
     joint_kinds = {int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)}
     result = {}
+    velocity = velocity_servos(model)
     for i in range(model.nu):
         if int(model.actuator_trntype[i]) not in joint_kinds:
             continue
         joint = int(model.actuator_trnid[i, 0])
-        if model.actuator_ctrllimited[i]:
+        if model.actuator_ctrllimited[i] and model.joint(joint).name not in velocity:
             low, high = model.actuator_ctrlrange[i]
         elif model.jnt_limited[joint]:
             low, high = model.jnt_range[joint]

@@ -199,3 +199,40 @@ def exported(config: Path, *names: str, into: Path | None = None) -> dict[str, b
 def model_files(variant: str) -> tuple[Path, Path]:
     directory = built() / variant
     return directory / f"{variant}.urdf", directory / f"{variant}.xml"
+
+
+WHEELED_URDF = """<?xml version="1.0"?>
+<robot name="wheeled">
+  <link name="base"/>
+  <link name="wheel_link">
+    <inertial><mass value="1.0"/><inertia ixx="0.01" iyy="0.01" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><cylinder radius="0.1" length="0.04"/></geometry></visual>
+  </link>
+  <link name="arm_link">
+    <inertial><origin xyz="0 0 0.1"/><mass value="0.5"/>
+      <inertia ixx="0.002" iyy="0.002" izz="0.0002" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><origin xyz="0 0 0.1"/><geometry><box size="0.04 0.04 0.2"/></geometry></visual>
+  </link>
+  <joint name="wheel" type="continuous">
+    <parent link="base"/><child link="wheel_link"/><axis xyz="0 0 1"/><limit effort="5" velocity="3"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="wheel_link"/><child link="arm_link"/><origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="50" velocity="2"/>
+  </joint>
+</robot>
+"""
+
+
+def wheeled(folder: Path, servo: str = "velocity") -> Path:
+    """A robot with a wheel (a continuous joint) under an elbow, its config written by ``svhdesc init --joint
+    wheel.servo=SERVO`` and built with ``svhdesc build``: the built variant's folder (TIAGo's wheels, in small)."""
+    source, config, out = folder / "wheeled.urdf", folder / "wheeled.yaml", folder / "out"
+    source.write_text(WHEELED_URDF)
+    for args in (
+        ("init", str(source), "--out", str(config), "--joint", f"wheel.servo={servo}"),
+        ("build", "--config", str(config), "--out", str(out)),
+    ):
+        result = run_cli(*args, in_process=True)
+        assert result.returncode == 0, result.stderr
+    return out / "wheeled"

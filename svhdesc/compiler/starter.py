@@ -335,7 +335,7 @@ def _drives(
 def _given(quirks: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """The quirks as the config writes them (``--joint``'s, and the renames of joints named like a link), the keys
     given, in the schema's order."""
-    keys = ("rename", "type", "effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
+    keys = ("rename", "type", "servo", "effort", "velocity", "lower", "upper", "mimic", "damping", "friction")
     return {name: {k: getattr(q, k) for k in keys if getattr(q, k) is not None} for name, q in quirks.items()}
 
 
@@ -348,6 +348,9 @@ def _arm_blocks(
         f"its independent movable joints: one position servo each, kp = effort / {STIFF_AT['revolute']} rad "
         f"({STIFF_AT['prismatic']} m)"
     )
+    velocity = [name for name, entry in given.items() if entry.get("servo") == "velocity"]
+    if velocity:
+        comment += f"; a velocity servo on {', '.join(velocity)} (joints.NAME.servo: velocity; its kp unused)"
     if capped:
         comment += ";\n" + textwrap.fill(
             f"held lower where the timestep ({timestep:g} s) could not integrate it on the inertia behind the joint "
@@ -365,7 +368,8 @@ def _arm_blocks(
             entry.update(effort=drive.effort, velocity=drive.velocity)
         elif drive.raised:
             entry.update(effort=drive.effort)
-        damping = _damping(joint, drive)
+        # a velocity servo is the motor's speed control: it needs no damping for a far target (only the source's)
+        damping = joint.damping if entry.get("servo") == "velocity" else _damping(joint, drive)
         if damping > 0 and "damping" not in entry:
             entry["damping"] = damping
     quirks = {name: entry for name, entry in quirks.items() if entry}

@@ -50,6 +50,8 @@ from svhdesc.model import (
     ROS2_FORWARD_CONTROLLER,
     ROS2_FORWARD_TYPE,
     STATE_PUBLISH_RATE,
+    VELOCITY_SERVO_CONTROLLER,
+    VELOCITY_SERVO_TYPE,
     hand_controller,
     ros2_hand_forward_controller,
 )
@@ -221,6 +223,13 @@ class SimNode:
             if joints:
                 controller = ForwardController(name, joints, self.sim, self.queue)
                 loaded.append(Loaded(name, ROS2_FORWARD_TYPE, POSITION_INTERFACE, list(joints), False, controller))
+        if info.velocity_joints:  # velocity servos: velocity_controllers' group, running from the start
+            velocity = ForwardController(VELOCITY_SERVO_CONTROLLER, info.velocity_joints, self.sim, self.queue)
+            velocity.core.running = True
+            joints = list(info.velocity_joints)
+            loaded.append(
+                Loaded(VELOCITY_SERVO_CONTROLLER, VELOCITY_SERVO_TYPE, VELOCITY_INTERFACE, joints, True, velocity)
+            )
         return loaded
 
     def _connect(self, rospy: Any, connector: Sequence[ConnectorJoint], float64: Any) -> list[tuple[str, Any]]:

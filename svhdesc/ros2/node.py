@@ -40,6 +40,7 @@ from svhdesc.model import (
     ROS2_FORWARD_TYPE,
     ROS2_JOINT_STATE_BROADCASTER,
     ROS2_JTC_TYPE,
+    VELOCITY_SERVO_TYPE,
     ros2_joint_name,
 )
 from svhdesc.ros2.system import import_rclpy
@@ -144,7 +145,6 @@ class SimNode:
     ) -> tuple[list[Loaded], dict[str, tuple[list[str], list[str]]]]:
         """The controllers of the yaml: joint_state_broadcaster (always active) and each trajectory controller."""
         from svhdesc.ros2.controller import TrajectoryController
-        from svhdesc.ros2.forward import ForwardController
 
         sim = self.sim
         to_ros = {j: ros2_joint_name(j) for j in sim.info.actuators}
@@ -161,15 +161,15 @@ class SimNode:
                 raise SvhdescError(f"{path}: {name} names joints {unknown} that {sim.variant} does not actuate")
             joints = [to_sim[j] for j in params["joints"]]
             commands = [f"{to_ros[j]}/position" for j in joints]
-            if kind == ROS2_FORWARD_TYPE:  # loaded inactive, as ur_robot_driver's launch loads it
-                forward = ForwardController(self.node, name, joints, sim, self.queue)
-                forward.on_failure = lambda failed: self.manager.core.fail(failed)
-                self.forward_controllers.append(forward)
-                loaded.append(Loaded(name, kind, "position", commands, False, forward))
-                interfaces[name] = (commands, [])  # forward_command_controller claims no state interface
+            if kind in (ROS2_FORWARD_TYPE, VELOCITY_SERVO_TYPE):
+                loaded.append(self._forward(name, kind, joints, to_ros))
+                interfaces[name] = (loaded[-1].resources, [])  # forward_command_controller claims no state interface
                 continue
             if kind != ROS2_JTC_TYPE:
-                raise SvhdescError(f"{path}: {name} is a {kind}; the node runs {ROS2_JTC_TYPE} and {ROS2_FORWARD_TYPE}")
+                raise SvhdescError(
+                    f"{path}: {name} is a {kind}; the node runs {ROS2_JTC_TYPE}, {ROS2_FORWARD_TYPE} and "
+                    f"{VELOCITY_SERVO_TYPE}"
+                )
             hand = all(j in sim.info.hand_channels for j in joints)
             controller = TrajectoryController(
                 self.node,
@@ -193,6 +193,19 @@ class SimNode:
                 [f"{to_ros[j]}/{i}" for j in joints for i in params.get("state_interfaces", ["position"])],
             )
         return loaded, interfaces
+
+    def _forward(self, name: str, kind: str, joints: list[str], to_ros: dict[str, str]) -> Loaded:
+        """A forward command group: the position group loaded inactive, as ur_robot_driver's launch loads it; the
+        velocity servos' group active (the launch spawns it so: nothing else drives those joints)."""
+        from svhdesc.ros2.forward import ForwardController
+
+        active = kind == VELOCITY_SERVO_TYPE
+        interface = "velocity" if active else "position"
+        forward = ForwardController(self.node, name, joints, self.sim, self.queue)
+        forward.core.running = active
+        forward.on_failure = lambda failed: self.manager.core.fail(failed)
+        self.forward_controllers.append(forward)
+        return Loaded(name, kind, interface, [f"{to_ros[j]}/{interface}" for j in joints], active, forward)
 
     def _spin(self) -> None:
         try:

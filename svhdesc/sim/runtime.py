@@ -106,6 +106,8 @@ class Simulation:
         self._act_qvel = np.array([self.model.joint(a).dofadr[0] for a in self.info.actuators], dtype=int)
         self._ctrlrange = self.model.actuator_ctrlrange.copy()
         self._ctrlrange[self.model.actuator_ctrllimited == 0] = (-math.inf, math.inf)  # a continuous joint's servo
+        # velocity servos: their target is a velocity (held: 0), never a position or a trajectory
+        self._velocity = np.array([a in self.info.velocity_joints for a in self.info.actuators], dtype=bool)
         # joint_state's efforts: the actuator force of each actuated joint, 0 on the coupled ones
         effort_of = {name: a for a, name in enumerate(self.info.actuators)}
         self._effort_cols = np.array([k for k, j in enumerate(self.info.joints) if j in effort_of], dtype=int)
@@ -139,7 +141,7 @@ class Simulation:
                     f"{self.variant} has no keyframe {keyframe!r}; it has: {', '.join(self.info.keyframes) or 'none'}"
                 )
             mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(keyframe).id)
-            self.data.ctrl[:] = self.data.qpos[self._act_qpos]
+            self.data.ctrl[:] = np.where(self._velocity, 0.0, self.data.qpos[self._act_qpos])
         self._active.clear()
         self._setpoint = self.data.ctrl[self._ramped].astype(float)
         mujoco.mj_forward(self.model, self.data)
@@ -196,10 +198,17 @@ class Simulation:
         """ctrl force = -p_gain (q - q_ref) - d_gain q_dot (thesis eq. 4.2) on ``name``'s servo."""
         if not (math.isfinite(p_gain) and math.isfinite(d_gain)) or p_gain < 0 or d_gain < 0:
             raise SvhdescError(f"gains for {name!r} must be finite and non-negative: p {p_gain}, d {d_gain}")
-        index = self.actuator(name)
+        index = self._position_servo(name)
         self.model.actuator_gainprm[index, 0] = p_gain
         self.model.actuator_biasprm[index, 1] = -p_gain
         self.model.actuator_biasprm[index, 2] = -d_gain
+
+    def _position_servo(self, name: str) -> int:
+        """The actuator of ``name``, which must be a position servo (a velocity servo takes velocities only)."""
+        index = self.actuator(name)
+        if self._velocity[index]:
+            raise SvhdescError(f"{name!r} is on a velocity servo: command its velocity (set_target), not a position")
+        return index
 
     def gains(self, name: str) -> tuple[float, float]:
         index = self.actuator(name)
@@ -211,10 +220,12 @@ class Simulation:
             raise SvhdescError(f"position for {name!r} is not finite: {value}")
         index = self.actuator(name)
         joint = self.info.actuators[index]
-        low, high = self._ctrlrange[index]
+        low, high = self._ctrlrange[index] if not self._velocity[index] else self.model.joint(joint).range
+        if self._velocity[index] and not self.model.jnt_limited[self.model.joint(joint).id]:
+            low, high = -math.inf, math.inf
         value = min(max(value, low), high)
         self._release([index])
-        self.data.ctrl[index] = value
+        self.data.ctrl[index] = 0.0 if self._velocity[index] else value
         self._setpoint[self._ramped == index] = value
         self.data.qpos[self._act_qpos[index]] = value
         self.data.qvel[self._act_qvel[index]] = 0.0
@@ -256,7 +267,7 @@ class Simulation:
 
         Joints not named keep what they were doing. Positions outside a joint's range are refused
         (the servo would clamp them and the trajectory could never be reached)."""
-        indices = [self.actuator(n) for n in names]
+        indices = [self._position_servo(n) for n in names]
         if len(set(indices)) != len(indices):
             raise SvhdescError(f"joint names repeat: {list(names)}")
         problem = validate_points(points, len(indices))
@@ -279,10 +290,10 @@ class Simulation:
         return trajectory
 
     def hold(self, names: Sequence[str]) -> None:
-        """Stop trajectories on ``names`` and hold their current positions (a cancel)."""
+        """Stop trajectories on ``names`` and hold their current positions (a cancel); a velocity servo stops."""
         indices = [self.actuator(n) for n in names]
         self._release(indices)
-        self.data.ctrl[indices] = self.data.qpos[self._act_qpos[indices]]
+        self.data.ctrl[indices] = np.where(self._velocity[indices], 0.0, self.data.qpos[self._act_qpos[indices]])
         held = np.isin(self._ramped, indices)
         self._setpoint[held] = self.data.ctrl[self._ramped[held]]
 

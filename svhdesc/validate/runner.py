@@ -27,6 +27,7 @@ from svhdesc.validate.report import FAIL, Check, VariantReport
 from svhdesc.validate.semantics import check_semantics
 from svhdesc.validate.simulate import check_simulation
 from svhdesc.validate.transmissions import check_transmissions
+from svhdesc.validate.velocity import check_velocity_tracking
 
 Stage = Callable[[ModelPair, Options], list[Check]]
 
@@ -50,6 +51,7 @@ STAGES: list[tuple[Stage, tuple[str, ...]]] = [
     (check_gravity_hold, ("gravity_hold",)),
     (check_collision_fidelity, ("collision_fidelity",)),
     (check_range_of_motion, ("range_of_motion",)),
+    (check_velocity_tracking, ("velocity_tracking",)),
     (check_contact_stability, ("contact_stability",)),
     (check_fingertip_force, ("fingertip_force",)),
     (check_grasps, ("grasps",)),
@@ -61,7 +63,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "mass": ("mass_budget", "inertia", "min_mass", "mass_agreement"),
     "coupling": ("coupling_tracking", "coupling_spec", "limits"),
     "margins": ("coupling_tracking", "load_limits"),
-    "fidelity": ("collision_fidelity", "range_of_motion", "fingertip_force", "grasps"),
+    "fidelity": ("collision_fidelity", "range_of_motion", "velocity_tracking", "fingertip_force", "grasps"),
 }
 
 

@@ -116,6 +116,7 @@ def test_the_arm_validates(arm: tuple[str, Path], tmp_path: Path) -> None:
     assert result.returncode == 0, result.stdout + result.stderr
     checks = {c["name"]: c["status"] for c in json.loads(report.read_text())["variants"][0]["checks"]}
     if every:
-        assert {n for n, s in checks.items() if s != "pass"} == {"grasps"}  # skipped: the configs name no grasps
+        # skipped: the configs name no grasps, and drive no joint by velocity
+        assert {n for n, s in checks.items() if s != "pass"} == {"grasps", "velocity_tracking"}
     else:
         assert set(checks) == set(ARM_CHECKS.split(",")) and set(checks.values()) == {"pass"}, checks

@@ -35,9 +35,10 @@ XARM_FOLLOWERS = {
     "right_inner_knuckle_joint",
 }
 NOT_AN_SVH = {"collision_fidelity", "contact_stability", "fingertip_force", "grasps"}  # the SVH's facts
+POSITION_SERVOS = {"velocity_tracking"}  # every joint on a position servo
 SKIPPED = {
-    "ur5": NOT_AN_SVH | {"load_limits", "coupling_tracking", "coupling_spec", "limits"},  # its arm joints: driven
-    "xarm6_gripper": NOT_AN_SVH,  # its gripper is driven end to end and loaded like any hand
+    "ur5": NOT_AN_SVH | POSITION_SERVOS | {"load_limits", "coupling_tracking", "coupling_spec", "limits"},  # driven
+    "xarm6_gripper": NOT_AN_SVH | POSITION_SERVOS,  # its gripper is driven end to end and loaded like any hand
 }
 
 pytestmark = pytest.mark.slow  # each robot's build and validate take tens of seconds

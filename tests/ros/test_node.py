@@ -746,3 +746,50 @@ def test_forward_position_controllers_like_ros_controllers(ros: dict[str, Any]) 
         command.unregister()
         assert switch([HAND], [HAND_FORWARD], strict, False, 0.0).ok
     assert listed()[HAND].state == "running" and listed()[HAND_FORWARD].state == "stopped"
+
+
+def test_a_velocity_servo_gets_velocity_controllers_group(ros: dict[str, Any], tmp_path: Path) -> None:
+    """A continuous joint on a velocity servo (joints.NAME.servo: velocity, tests/support.py ``wheeled``): the node
+    runs velocity_controllers/JointGroupVelocityController ``forward_velocity_controller`` over it (running, its
+    VelocityJointInterface), the trajectory and position controllers leave it out; a command turns the wheel at that
+    velocity, and zero stops it. Seeded faults: RobotInfo keeping the wheel in arm_joints -> the trajectory controller
+    claims it; the group loaded with its core stopped -> the wheel never turns."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    from svhdesc.ros1.messages import controller_manager_msgs
+    from tests.support import wheeled
+
+    rospy, cm = ros["rospy"], controller_manager_msgs()
+    folder = wheeled(tmp_path)
+    node = subprocess.Popen(
+        [svhdesc_executable(), "sim", str(folder), "--ros", "--realtime", "--duration", "600"]
+        + ["__ns:=/wheeled", "__name:=wheeled_sim", "/clock:=/wheeled/clock"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        states = Latest(rospy, "/wheeled/joint_states", JointState)
+        wait_for(lambda: states.message, 60, "/wheeled/joint_states")
+        listing = rospy.ServiceProxy("/wheeled/controller_manager/list_controllers", cm.ListControllers)
+        listing.wait_for_service(30)
+        listed = {c.name: c for c in listing().controller}
+        velocity = listed["forward_velocity_controller"]
+        assert velocity.type == "velocity_controllers/JointGroupVelocityController" and velocity.state == "running"
+        assert velocity.claimed_resources[0].resources == ["wheel"]
+        assert velocity.claimed_resources[0].hardware_interface == "hardware_interface::VelocityJointInterface"
+        assert all("wheel" not in c.claimed_resources[0].resources for n, c in listed.items() if c is not velocity)
+
+        def speed() -> float:
+            message = states.fresh()
+            return dict(zip(message.name, message.velocity))["wheel"]
+
+        assert abs(speed()) < 1e-3  # held still from the start
+        command = rospy.Publisher("/wheeled/forward_velocity_controller/command", Float64MultiArray, queue_size=1)
+        wait_for(lambda: command.get_num_connections(), 20, "the velocity command subscriber")
+        for target in (1.5, -0.5, 0.0):
+            command.publish(Float64MultiArray(data=[target]))
+            wait_for(lambda t=target: abs(speed() - t) < 0.02, 60, f"the wheel at {target} rad/s", period=0.2)
+        command.unregister()
+    finally:
+        stop(node)

@@ -7,6 +7,7 @@ files: ros2/config/ros2_controllers.yaml and ros2/mujoco/<variant>.xml).
     python client.py --recording FILE.mcap OUT.json # read the node's recording back with rosbags
     python client.py --tracker VARIANT_DIR OUT.json BODY...   # tracked/<body> poses, the forward controller driving
     python client.py --burst VARIANT_DIR OUT.json COUNT DEPTH  # COUNT goals at once, client services of DEPTH
+    python client.py --velocity OUT.json JOINT     # forward_velocity_controller's listing, and JOINT's speeds
 
 Runs inside the test's private network namespace with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST. Every wait is on
 simulated time (/clock) or on an answer, bounded by a generous wall-clock timeout.
@@ -608,6 +609,53 @@ def tracker(c: Client, bodies: list[str]) -> dict[str, Any]:
     return out
 
 
+def velocity(joint: str) -> dict[str, Any]:
+    """``forward_velocity_controller`` as /controller_manager lists it, and ``joint``'s speed in /joint_states 1
+    simulated s after each command on its ``~/commands`` (still before the first)."""
+    node = rclpy.create_node(
+        "svhdesc_velocity_client", parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
+    )
+    speeds: list[tuple[float, float]] = []
+    node.create_subscription(
+        JointState,
+        "/joint_states",
+        lambda m: speeds.append((seconds(m.header.stamp), dict(zip(m.name, m.velocity))[joint])),
+        100,
+    )
+    listing = node.create_client(ListControllers, "/controller_manager/list_controllers")
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    threading.Thread(target=executor.spin, daemon=True).start()
+    if not listing.wait_for_service(timeout_sec=WALL):
+        raise TimeoutError("no controller_manager service")
+    found = {c.name: c for c in wait(listing.call_async(ListControllers.Request())).controller}
+    controllers = {
+        name: {"type": c.type, "state": c.state, "claimed": list(c.claimed_interfaces)} for name, c in found.items()
+    }
+    publisher = node.create_publisher(Float64MultiArray, "/forward_velocity_controller/commands", 10)
+
+    def after(wait_s: float) -> float:
+        deadline = time.monotonic() + WALL
+        while not speeds:
+            if time.monotonic() > deadline:
+                raise TimeoutError("no /joint_states")
+            time.sleep(0.01)
+        until = speeds[-1][0] + wait_s
+        while speeds[-1][0] < until:
+            if time.monotonic() > deadline:
+                raise TimeoutError("the simulation stopped")
+            publisher.publish(message)  # until the node's subscription has matched: a command is idempotent
+            time.sleep(0.01)
+        return speeds[-1][1]
+
+    message = Float64MultiArray(data=[0.0])
+    reached = {"still": after(0.5)}
+    for target in (1.5, -0.5, 0.0):
+        message = Float64MultiArray(data=[target])
+        reached[str(target)] = after(1.0)
+    return {"controllers": controllers, "speeds": reached}
+
+
 def die(variant_dir: Path, controller: str) -> None:
     c = Client(variant_dir)
     c.ready()
@@ -653,6 +701,10 @@ def main() -> None:
     if sys.argv[1] == "--burst":  # --burst VARIANT_DIR REPORT.json COUNT DEPTH (the action server alone is needed)
         c = Client(Path(sys.argv[2]))
         Path(sys.argv[3]).write_text(json.dumps(true_burst(c, int(sys.argv[4]), int(sys.argv[5]))))
+        sys.stdout.flush()
+        os._exit(0)
+    if sys.argv[1] == "--velocity":  # --velocity REPORT.json JOINT
+        Path(sys.argv[2]).write_text(json.dumps(velocity(sys.argv[3]), indent=1, sort_keys=True))
         sys.stdout.flush()
         os._exit(0)
     if sys.argv[1] == "--tracker":  # --tracker VARIANT_DIR REPORT.json BODY...

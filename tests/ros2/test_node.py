@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import shlex
 import subprocess
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -363,3 +364,45 @@ def test_the_node_clock_is_simulated_time_without_reading_its_own_clock_topic(in
     assert "/clock" not in report["subscribed"], report["subscribed"]
     assert all(ns == round(at * 1e9) for at, ns in report["worked"]), report["worked"][-3:]
     assert report["worked"][-1][1] > 0
+
+
+def test_a_velocity_servo_gets_a_velocity_group_controller(tmp_path: Path) -> None:
+    """A continuous joint on a velocity servo (joints.NAME.servo: velocity, tests/support.py ``wheeled``), served by
+    ``svhdesc sim FOLDER --ros2``: ros2_controllers' velocity_controllers/JointGroupVelocityController
+    ``forward_velocity_controller`` is active, claiming ``wheel/velocity``, and no other controller claims the
+    wheel; its ``~/commands`` turn the wheel at that velocity, zero stops it (the client: no svhdesc code). Seeded
+    faults: the node loading the velocity group inactive -> the wheel never turns; the exporter's arm_joints keeping
+    the wheel -> the trajectory controller claims wheel/position."""
+    why = why_not()
+    if why:
+        pytest.skip(why)
+    from tests.support import wheeled
+
+    folder = wheeled(tmp_path)
+    python, client, report = shlex.quote(str(PYTHON)), shlex.quote(str(CLIENT)), tmp_path / "report.json"
+    script = f"""
+ip link set lo up
+{python} -m svhdesc.cli sim {shlex.quote(str(folder))} --ros2 > {tmp_path}/node.log 2>&1 &
+node=$!
+{python} {client} --velocity {report} wheel > {tmp_path}/client.log 2>&1
+kill -INT $node
+wait $node
+"""
+    namespace = private_namespace()
+    assert isinstance(namespace, list)
+    subprocess.run([*namespace, "sh", "-c", script], env=private_env(tmp_path), timeout=300, check=False)
+    logs = "".join(f"\n{p.name}:\n{p.read_text()[-3000:]}" for p in tmp_path.glob("*.log"))
+    assert report.exists(), logs
+    found = json.loads(report.read_text())
+    controllers = found["controllers"]
+    group = controllers["forward_velocity_controller"]
+    assert group == {
+        "type": "velocity_controllers/JointGroupVelocityController",
+        "state": "active",
+        "claimed": ["wheel/velocity"],
+    }, controllers
+    others = [c for n, c in controllers.items() if n != "forward_velocity_controller"]
+    assert all(not any(i.startswith("wheel/") for i in c["claimed"]) for c in others), controllers
+    speeds = found["speeds"]
+    assert abs(speeds["still"]) < 1e-3 and abs(speeds["0.0"]) < 0.02, speeds
+    assert abs(speeds["1.5"] - 1.5) < 0.02 and abs(speeds["-0.5"] + 0.5) < 0.02, speeds

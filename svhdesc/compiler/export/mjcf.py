@@ -122,6 +122,8 @@ def _roles(robot: Robot) -> tuple[dict[str, str], dict[str, str]]:
     groups: dict[tuple[str, str], str] = {}
     taken = {*FIXED_CLASSES, top_class(robot)}
     for act in robot.actuators:
+        if act.velocity:  # a velocity servo writes its own attributes
+            continue
         if act.joint in channel_joints:
             actuators[act.name] = "servo"
             continue
@@ -143,7 +145,7 @@ def _default_classes(robot: Robot, gravcomp: bool) -> tuple[list[DefaultClass], 
         if members:
             classes.append(DefaultClass(role, "joint", _shared(members, JOINT_SHARED)))
     for role in dict.fromkeys(actuator_role.values()):
-        members = [_actuator_attrs(a) for a in robot.actuators if actuator_role[a.name] == role]
+        members = [_actuator_attrs(a) for a in robot.actuators if actuator_role.get(a.name) == role]
         classes.append(DefaultClass(role, "position", _shared(members, ACTUATOR_SHARED)))
     return classes, joint_role, actuator_role
 
@@ -297,6 +299,10 @@ def _equality(root: etree._Element, robot: Robot) -> None:
 def _actuators(root: etree._Element, robot: Robot, actuator_class: dict[str, DefaultClass]) -> None:
     actuator = sub(root, "actuator")
     for act in robot.actuators:
+        if act.velocity:  # force = kv (ctrl - qvel), integrated implicitly
+            attrs = {"name": act.name, "joint": act.joint, "kv": num(act.kp), "ctrlrange": nums((act.lower, act.upper))}
+            sub(actuator, "velocity", **attrs, forcerange=nums((-act.effort, act.effort)))
+            continue
         sub(actuator, "position", **_with_class(_actuator_attrs(act), actuator_class[act.name]))
 
 
@@ -316,10 +322,15 @@ def _keyframes(root: etree._Element, robot: Robot) -> None:
             "key",
             name=frame.name,
             qpos=nums(values[j] for j in order),
-            ctrl=nums(
-                min(max(values[a.joint], a.lower), a.upper) if a.limited else values[a.joint] for a in robot.actuators
-            ),
+            ctrl=nums(_home_ctrl(a, values[a.joint]) for a in robot.actuators),
         )
+
+
+def _home_ctrl(actuator: Actuator, position: float) -> float:
+    """A keyframe's servo target: its position (clamped to the servo's range), or still for a velocity servo."""
+    if actuator.velocity:
+        return 0.0
+    return min(max(position, actuator.lower), actuator.upper) if actuator.limited else position
 
 
 def export_mjcf(robot: Robot) -> bytes:

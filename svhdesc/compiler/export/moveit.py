@@ -18,6 +18,8 @@ from svhdesc.model import (
     CONSTRAINTS,
     DECLARES_CONSTRAINTS,
     STATE_PUBLISH_RATE,
+    VELOCITY_SERVO_CONTROLLER,
+    VELOCITY_SERVO_TYPE,
     hand_controller,
 )
 
@@ -52,8 +54,14 @@ def hand_joints(robot: Robot) -> list[str]:
 
 
 def arm_joints(robot: Robot) -> list[str]:
+    """The arm's joints on position servos (what its trajectory controllers and planning group drive)."""
     channels = {c.joint for c in robot.channels}
-    return [a.joint for a in robot.actuators if a.joint not in channels]
+    return [a.joint for a in robot.actuators if a.joint not in channels and not a.velocity]
+
+
+def velocity_joints(robot: Robot) -> list[str]:
+    """The joints on velocity servos (joints.NAME.servo: velocity): a velocity group controller's, planned by none."""
+    return [a.joint for a in robot.actuators if a.velocity]
 
 
 def arm_chain(robot: Robot) -> tuple[str, str]:
@@ -100,7 +108,7 @@ def export_srdf(robot: Robot, collisions: Mapping[tuple[str, str], str]) -> byte
         sub(group, "group", name=ARM_GROUP)
         sub(group, "group", name=HAND_GROUP)
     state_group = groups[-1]  # the widest: arm and hand, else whichever the robot has
-    active = [a.joint for a in robot.actuators]
+    active = [a.joint for a in robot.actuators if not a.velocity]  # a group state names its groups' joints
     for keyframe in robot.keyframes:
         values = dict(keyframe.qpos)
         state = sub(root, "group_state", name=keyframe.name, group=state_group)
@@ -194,6 +202,8 @@ def export_ros_controllers(robot: Robot, d_gains: Mapping[str, float]) -> bytes:
         if effort:
             controller["gains"] = {j: {"p": float(kp[j]), "d": float(d_gains[j]), "i": 0.0} for j in joints}
         document[name] = controller
+    if velocity_joints(robot):  # over their VelocityJointInterface
+        document[VELOCITY_SERVO_CONTROLLER] = {"type": VELOCITY_SERVO_TYPE, "joints": velocity_joints(robot)}
     return dump_yaml(document)
 
 

@@ -16,7 +16,7 @@ def export_connector(robot: Robot, d_gains: Mapping[str, float]) -> bytes:
     """One connector entry per actuated joint (thesis sec. 4.2.3); gains are the MJCF servo's,
     ``d_gains`` the damping MuJoCo derives from each servo's dampratio."""
     joints = []
-    for actuator in robot.actuators:
+    for actuator in (a for a in robot.actuators if not a.velocity):  # a velocity servo takes no position target
         entry = {"name": actuator.joint, "p_gain": float(actuator.kp), "d_gain": float(d_gains[actuator.name])}
         entry.update(connector_topics(actuator.joint))
         joints.append(entry)

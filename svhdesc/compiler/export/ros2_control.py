@@ -46,8 +46,8 @@ def _home(robot: Robot) -> dict[str, float]:
     return frames.get("home") or next(iter(frames.values()), {})
 
 
-def _interfaces(joint: etree._Element, initial: float | None, command: bool) -> None:
-    for name in COMMAND_INTERFACES if command else ():
+def _interfaces(joint: etree._Element, initial: float | None, command: tuple[str, ...]) -> None:
+    for name in command:
         sub(joint, "command_interface", name=name)
     for name in STATE_INTERFACES:
         state = sub(joint, "state_interface", name=name)
@@ -56,8 +56,9 @@ def _interfaces(joint: etree._Element, initial: float | None, command: bool) -> 
 
 
 def export_ros2_control(robot: Robot) -> bytes:
-    """The ``svhdesc_ros2_control`` macro: one system with every actuated joint (command: position) and every
-    mimic joint (state only), its plugin chosen by ``hardware``; for Gazebo, also gz_ros2_control's plugin."""
+    """The ``svhdesc_ros2_control`` macro: one system with every actuated joint (command: position; velocity on a
+    velocity servo) and every mimic joint (state only), its plugin chosen by ``hardware``; for Gazebo, also
+    gz_ros2_control's plugin."""
     root = etree.Element("robot", nsmap={"xacro": XACRO})
     root.append(etree.Comment(f" {GENERATED} "))
     macro = sub(root, f"{X}macro", name=MACRO, params="name hardware controllers")
@@ -70,9 +71,9 @@ def export_ros2_control(robot: Robot) -> bytes:
     home = _home(robot)
     for actuator in robot.actuators:
         joint = sub(system, "joint", name=actuator.joint)
-        _interfaces(joint, home.get(actuator.joint), command=True)
+        _interfaces(joint, home.get(actuator.joint), ("velocity",) if actuator.velocity else COMMAND_INTERFACES)
     for mimic in (j for j in robot.joints if j.mimic):
-        _interfaces(sub(system, "joint", name=mimic.name, mimic="true"), None, command=False)
+        _interfaces(sub(system, "joint", name=mimic.name, mimic="true"), None, ())
     gazebo = sub(sub(macro, f"{X}if", value="${hardware == 'gazebo'}"), "gazebo")
     plugin = sub(
         gazebo, "plugin", filename="gz_ros2_control-system", name="gz_ros2_control::GazeboSimROS2ControlPlugin"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 
 from svhdesc.compiler.export.package import package_name
-from svhdesc.compiler.export.ros2 import FOLDER, controllers, forward_controllers
+from svhdesc.compiler.export.ros2 import FOLDER, controllers, forward_controllers, velocity_controllers
 from svhdesc.compiler.export.ros2_control import (
     CONTROLLERS_FILE,
     DEFAULT_HARDWARE,
@@ -225,6 +225,7 @@ def _render(robot: Robot, doc: str, imports: str, body: str, extra: dict[str, ob
 def export_sim_launch(robot: Robot) -> bytes:
     inactive = [name for name, _ in forward_controllers(robot)]  # loaded inactive, as ur_robot_driver's launch does
     spawn = [ROS2_JOINT_STATE_BROADCASTER] + [name for name, _, _ in controllers(robot)]
+    spawn += [name for name, _ in velocity_controllers(robot)]  # active: nothing else drives those joints
     extra = {
         "CONTROLLERS": CONTROLLERS_FILE,
         "MUJOCO_SCENE": f"{MUJOCO_FOLDER}/scene.xml",

@@ -285,14 +285,18 @@ def _joint(stage: Usd.Stage, root: Sdf.Path, robot: Robot, joint: Joint, poses: 
 
 
 def _drive(prim: Usd.Prim, joint: Joint, kp: float, kv: float, effort: float) -> None:
-    """A position servo: force = kp (target - q) - kv qdot, limited to the effort (gains per degree or metre)."""
+    """A position servo: force = kp (target - q) - kv qdot, limited to the effort (gains per degree or metre); a
+    velocity servo (kp 0): force = kv (target velocity - qdot), the drive's damping only."""
     linear = joint.type == "prismatic"
     drive = UsdPhysics.DriveAPI.Apply(prim, UsdPhysics.Tokens.linear if linear else UsdPhysics.Tokens.angular)
     drive.CreateTypeAttr(UsdPhysics.Tokens.force)
     drive.CreateStiffnessAttr(float(kp / unit(joint)))
     drive.CreateDampingAttr(float(kv / unit(joint)))
     drive.CreateMaxForceAttr(float(effort))
-    drive.CreateTargetPositionAttr(0.0)
+    if kp > 0:
+        drive.CreateTargetPositionAttr(0.0)
+    else:
+        drive.CreateTargetVelocityAttr(0.0)
 
 
 def _dof(joint: Joint) -> str:
@@ -349,7 +353,8 @@ def export_usd(robot: Robot, assets: Assets, damping: dict[str, float]) -> bytes
     UsdGeom.Scope.Define(stage, root.AppendChild("joints"))
     prims = {joint.name: _joint(stage, root, robot, joint, poses) for joint in robot.joints}
     for actuator in robot.actuators:
-        _drive(prims[actuator.joint], robot.joint(actuator.joint), actuator.kp, damping[actuator.name], actuator.effort)
+        kp = 0.0 if actuator.velocity else actuator.kp  # a velocity servo's kv is MuJoCo's (``damping``)
+        _drive(prims[actuator.joint], robot.joint(actuator.joint), kp, damping[actuator.name], actuator.effort)
     for joint in robot.joints:
         if joint.mimic is not None:
             offset, multiplier = mimic_line(robot, joint)

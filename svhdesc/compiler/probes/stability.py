@@ -78,11 +78,11 @@ def servos(model: Any) -> Servos:
         if int(model.actuator_trntype[actuator]) != int(mujoco.mjtTrn.mjTRN_JOINT):
             continue
         dof = int(model.jnt_dofadr[model.actuator_trnid[actuator, 0]])
-        kp = float(model.actuator_gainprm[actuator, 0])
+        kp = max(-float(model.actuator_biasprm[actuator, 1]), 0.0)  # a position servo's; a velocity servo has none
         stiffness[dof, dof] += kp
         damping[dof, dof] += max(-float(model.actuator_biasprm[actuator, 2]), 0.0)
         own = kp / inertia[dof, dof] if inertia[dof, dof] > 0 else math.inf
-        if own > rate:
+        if kp > 0 and own > rate:
             fastest, rate = (model.actuator(actuator).name, kp, float(inertia[dof, dof])), own
     return Servos(inertia, damping, stiffness, float(model.opt.timestep), fastest)
 
@@ -153,7 +153,7 @@ def _strongest(model: Any, dof: int) -> str:
     if not driving:
         return ""
     force = float(max(abs(v) for v in model.actuator_forcerange[driving[0]]))
-    kp, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])
+    kp, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])  # kv for a velocity servo
     return (
         f" Its servo (kp {kp:.4g}, force limit {force:.4g}) can accelerate the {behind:.3g} of inertia behind it at "
         f"{force / behind:.3g} per s^2."

@@ -20,6 +20,10 @@ INTERFACES = {
     "position": "hardware_interface/PositionJointInterface",
     "effort": "hardware_interface/EffortJointInterface",
 }
+VELOCITY_INTERFACE = "hardware_interface/VelocityJointInterface"  # a velocity servo's, whatever the section says
+# A velocity servo exerts its full effort this far (a share of the rated velocity) off its commanded velocity: kv =
+# effort / (VELOCITY_ERROR x velocity), as a position servo's kp = effort / 0.1 rad.
+VELOCITY_ERROR = 0.1
 
 
 def arm_joints(robot: Robot, arm: Arm) -> list[str]:
@@ -86,9 +90,8 @@ def add_actuation(
     if names and len(kps) != len(names):
         raise SvhdescError(f"{arm.at('kp')}: arm.kp: expected {len(names)} values (one per arm joint), got {len(kps)}")
     for name, kp in zip(names, kps):
-        j = joints[name]
-        # A continuous joint (a wheel, an endless wrist) gets a position servo without limits: any angle is a target.
-        actuators.append(Actuator(name, name, j.lower, j.upper, j.effort, kp, arm.dampratio, j.type != "continuous"))
+        actuators.append(_arm_servo(joints[name], kp, arm, overrides.get(name)))
+    _check_servo_keys(overrides, {a.joint for a in actuators if a.velocity}, set(names))
     # Joint dynamics: channel efforts/velocities come from the spec; followers share their channel's
     # effort, and move as fast as the coupling makes them (j4 turns 1.45x as fast as Thumb_Flexion):
     # a follower capped at the channel's speed lags behind it in engines that enforce velocity limits.
@@ -115,8 +118,33 @@ def add_actuation(
                 limit_solref=_solref(arm.limit_solref),
             )
         updated.append(_joint_dynamics(joint, overrides, friction_cap) if joint.movable else joint)
-    transmissions_ = tuple(Transmission(f"{a.joint}_transmission", a.joint, interface) for a in actuators)
+    transmissions_ = tuple(
+        Transmission(f"{a.joint}_transmission", a.joint, VELOCITY_INTERFACE if a.velocity else interface)
+        for a in actuators
+    )
     return replace(robot, joints=tuple(updated), actuators=tuple(actuators), transmissions=transmissions_)
+
+
+def _arm_servo(joint: Joint, kp: float, arm: Arm, quirk: Any) -> Actuator:
+    """A position servo; a continuous joint (a wheel, an endless wrist) gets one without limits (any angle is a
+    target), or, with joints.NAME.servo: velocity, a velocity servo over its rated velocity."""
+    continuous = joint.type == "continuous"
+    if continuous and getattr(quirk, "servo", None) == "velocity":
+        kv = joint.effort / (VELOCITY_ERROR * joint.velocity)
+        v = joint.velocity
+        return Actuator(joint.name, joint.name, -v, v, joint.effort, kv, arm.dampratio, True, "velocity")
+    return Actuator(joint.name, joint.name, joint.lower, joint.upper, joint.effort, kp, arm.dampratio, not continuous)
+
+
+def _check_servo_keys(overrides: dict[str, Any], velocity: set[str], arm: set[str]) -> None:
+    """joints.NAME.servo: velocity is for a continuous arm joint (a channel, a limited joint: a position servo)."""
+    for name, quirk in overrides.items():
+        if getattr(quirk, "servo", None) == "velocity" and name not in velocity:
+            why = "is not in arm.joints" if name not in arm else "is not continuous (it has limits)"
+            raise SvhdescError(
+                f"{quirk.at('servo')}: joints.{name}.servo: velocity is for a continuous joint of the arm, and "
+                f"{name} {why}"
+            )
 
 
 def _solref(values: list[float] | None) -> tuple[float, float] | None:

@@ -18,6 +18,7 @@ from svhdesc.errors import SvhdescError
 
 CONTACT_MODELS = {"point": 1, "hard_finger": 3, "soft_finger": 4}
 INTERFACES = ("position", "effort")
+SERVOS = ("position", "velocity")  # joints.NAME.servo
 
 Check = Callable[[Any, str], Any]  # (raw value, "file:line: key") -> normalised value
 LARGEST = 1e6  # no setting of a robot model is larger in magnitude (metres, kg, N m/rad, ...)
@@ -474,6 +475,9 @@ class JointDynamics(Located):
     rename: str | None = _field(None, optional(text))
     # continuous: a revolute joint that turns without end, written without usable limits; fixed: locked at 0
     type: str | None = _field(None, optional(choice("continuous", "fixed")))
+    # a continuous joint's drive: position (a servo without limits: any angle is a target; the default) or velocity
+    # (a velocity servo commanded in rad/s, as a wheel's motor is)
+    servo: str | None = _field(None, optional(choice(*SERVOS)))
 
 
 def _joint_dynamics(value: Any, at: str) -> JointDynamics:
