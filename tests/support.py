@@ -224,13 +224,17 @@ WHEELED_URDF = """<?xml version="1.0"?>
 """
 
 
-def wheeled(folder: Path, servo: str = "velocity") -> Path:
+@functools.cache
+def wheeled() -> Path:
     """A robot with a wheel (a continuous joint) under an elbow, its config written by ``svhdesc init --joint
-    wheel.servo=SERVO`` and built with ``svhdesc build``: the built variant's folder (TIAGo's wheels, in small)."""
+    wheel.servo=velocity`` and built with ``svhdesc build`` once per process (TIAGo's wheels, in small): the built
+    variant's folder, ``<folder>/out/wheeled`` beside ``<folder>/wheeled.yaml``. Read it, do not change it."""
+    run = os.environ.get("SVHDESC_TEST_RUN")
+    folder = Path(tempfile.mkdtemp(prefix="wheeled-", dir=run if run and Path(run).is_dir() else None))
     source, config, out = folder / "wheeled.urdf", folder / "wheeled.yaml", folder / "out"
     source.write_text(WHEELED_URDF)
     for args in (
-        ("init", str(source), "--out", str(config), "--joint", f"wheel.servo={servo}"),
+        ("init", str(source), "--out", str(config), "--joint", "wheel.servo=velocity"),
         ("build", "--config", str(config), "--out", str(out)),
     ):
         result = run_cli(*args, in_process=True)

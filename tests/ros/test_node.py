@@ -748,7 +748,7 @@ def test_forward_position_controllers_like_ros_controllers(ros: dict[str, Any]) 
     assert listed()[HAND].state == "running" and listed()[HAND_FORWARD].state == "stopped"
 
 
-def test_a_velocity_servo_gets_velocity_controllers_group(ros: dict[str, Any], tmp_path: Path) -> None:
+def test_a_velocity_servo_gets_velocity_controllers_group(ros: dict[str, Any]) -> None:
     """A continuous joint on a velocity servo (joints.NAME.servo: velocity, tests/support.py ``wheeled``): the node
     runs velocity_controllers/JointGroupVelocityController ``forward_velocity_controller`` over it (running, its
     VelocityJointInterface), the trajectory and position controllers leave it out; a command turns the wheel at that
@@ -761,7 +761,7 @@ def test_a_velocity_servo_gets_velocity_controllers_group(ros: dict[str, Any], t
     from tests.support import wheeled
 
     rospy, cm = ros["rospy"], controller_manager_msgs()
-    folder = wheeled(tmp_path)
+    folder = wheeled()
     node = subprocess.Popen(
         [svhdesc_executable(), "sim", str(folder), "--ros", "--realtime", "--duration", "600"]
         + ["__ns:=/wheeled", "__name:=wheeled_sim", "/clock:=/wheeled/clock"],

@@ -378,7 +378,7 @@ def test_a_velocity_servo_gets_a_velocity_group_controller(tmp_path: Path) -> No
         pytest.skip(why)
     from tests.support import wheeled
 
-    folder = wheeled(tmp_path)
+    folder = wheeled()
     python, client, report = shlex.quote(str(PYTHON)), shlex.quote(str(CLIENT)), tmp_path / "report.json"
     script = f"""
 ip link set lo up

@@ -3,8 +3,6 @@ velocity, held at 0; it takes no position, trajectory or position gains."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from svhdesc.errors import SvhdescError
@@ -12,10 +10,10 @@ from svhdesc.sim import Simulation
 from tests.support import wheeled
 
 
-def test_a_velocity_servo_takes_velocities_and_holds_still(tmp_path: Path) -> None:
+def test_a_velocity_servo_takes_velocities_and_holds_still() -> None:
     """Seeded faults: Simulation.hold writing the wheel's position as its target -> after the teleport to 7 rad the
     wheel spins at its limit instead of standing; follow without _position_servo -> the trajectory is taken."""
-    sim = Simulation(str(wheeled(tmp_path)))
+    sim = Simulation(str(wheeled()))
     assert sim.info.velocity_joints == ("wheel",) and sim.info.arm_joints == ("elbow",)
     assert sim.limits("wheel") == (-3.0, 3.0) and sim.targets()["wheel"] == 0.0
     wheel = sim.model.joint("wheel").dofadr[0]

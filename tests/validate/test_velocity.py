@@ -15,8 +15,8 @@ from tests.support import wheeled
 
 
 @pytest.fixture(scope="module")
-def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return wheeled(tmp_path_factory.mktemp("wheeled"))
+def folder() -> Path:
+    return wheeled()
 
 
 def _pair(folder: Path) -> ModelPair:

@@ -26,8 +26,8 @@ KV = 5.0 / (0.1 * 3.0)  # effort / (0.1 x velocity) of WHEELED_URDF's wheel
 
 
 @pytest.fixture(scope="module")
-def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return wheeled(tmp_path_factory.mktemp("wheeled"))
+def folder() -> Path:
+    return wheeled()
 
 
 def _yaml(folder: Path, name: str) -> dict:
