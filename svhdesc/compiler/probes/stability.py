@@ -153,10 +153,12 @@ def _strongest(model: Any, dof: int) -> str:
     if not driving:
         return ""
     force = float(max(abs(v) for v in model.actuator_forcerange[driving[0]]))
-    kp, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])  # kv for a velocity servo
+    gain, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])
+    # A position servo's bias holds -kp on the position; a velocity servo's only -kv on the velocity.
+    name = "kp" if model.actuator_biasprm[driving[0], 1] != 0 else "kv"
     return (
-        f" Its servo (kp {kp:.4g}, force limit {force:.4g}) can accelerate the {behind:.3g} of inertia behind it at "
-        f"{force / behind:.3g} per s^2."
+        f" Its servo ({name} {gain:.4g}, force limit {force:.4g}) can accelerate the {behind:.3g} of inertia behind it"
+        f" at {force / behind:.3g} per s^2."
     )
 
 

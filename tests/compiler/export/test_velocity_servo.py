@@ -122,3 +122,14 @@ def test_refused_where_it_does_not_fit(folder: Path) -> None:
         line = next(n for n, row in enumerate(rows, 1) if row == f"  {name}:" and rows[n] == "    servo: velocity") + 1
         error = fails_cleanly(out, "build", "--config", str(bad), "--out", str(out), match="servo: velocity")
         assert f"{bad}:{line}: joints.{name}.servo" in error and why in error, error
+
+
+def test_the_build_names_each_servo_s_own_gain(folder: Path) -> None:
+    """Where the build says what drives a joint (its refusal of a model that diverges), a velocity servo's gain is
+    its kv and a position servo's its kp. Seeded fault: every servo's gain called kp -> the wheel's line says kp."""
+    from svhdesc.compiler.probes.stability import _strongest
+
+    model = mujoco.MjModel.from_xml_path(str(folder / "wheeled.xml"))
+    wheel, elbow = (int(model.jnt_dofadr[model.joint(name).id]) for name in ("wheel", "elbow"))
+    assert f"(kv {KV:.4g}, force limit 5)" in _strongest(model, wheel)
+    assert "(kp " in _strongest(model, elbow)
