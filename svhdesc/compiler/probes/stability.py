@@ -43,6 +43,7 @@ from svhdesc.model import (
     Divergence,
     random_target_start,
     run_random_targets,
+    velocity_servos,
 )
 
 STIFFNESS_MARGIN = 1.25  # the servos may be this much stiffer (the inertia this much lighter) before the step grows
@@ -154,8 +155,7 @@ def _strongest(model: Any, dof: int) -> str:
         return ""
     force = float(max(abs(v) for v in model.actuator_forcerange[driving[0]]))
     gain, behind = float(model.actuator_gainprm[driving[0], 0]), float(inertia[dof, dof])
-    # A position servo's bias holds -kp on the position; a velocity servo's only -kv on the velocity.
-    name = "kp" if model.actuator_biasprm[driving[0], 1] != 0 else "kv"
+    name = "kv" if model.joint(joint).name in velocity_servos(model) else "kp"
     return (
         f" Its servo ({name} {gain:.4g}, force limit {force:.4g}) can accelerate the {behind:.3g} of inertia behind it"
         f" at {force / behind:.3g} per s^2."
