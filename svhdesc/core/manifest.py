@@ -1,4 +1,5 @@
-"""``manifest.json``, the one record of a built variant: every input, output, decomposition and tool by hash.
+"""``manifest.json``, the one record of a built variant: every input, output, decomposition and tool by hash, and
+the results the build sampled in MuJoCo (``sampled``, keyed by content: svhdesc.compiler.probes.cache).
 
 The build writes it; freshness, hull seeding and the validator read it, all through here. A manifest
 that is missing, unreadable or not shaped like one reads as None (the variant is then rebuilt).
@@ -11,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 FILE = "manifest.json"
-_MAPPINGS = ("inputs", "outputs", "decompositions", "tools")
+_MAPPINGS = ("inputs", "outputs", "decompositions", "sampled", "tools")
 
 
 def path(directory: Path) -> Path:

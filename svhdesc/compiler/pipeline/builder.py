@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.export.registry import EXECUTABLE, OUTPUTS, Built, probes_wanted
@@ -13,14 +14,22 @@ from svhdesc.compiler.pipeline.outdir import output_directory, publish, refuse_f
 from svhdesc.compiler.pipeline.steps import Compiled, compile_variants
 from svhdesc.compiler.pipeline.timings import Timings
 from svhdesc.compiler.probes import probe
+from svhdesc.compiler.probes.cache import committed_results, recording, seeded
 from svhdesc.core import manifest as manifest_file
 from svhdesc.core.settings.config import Config
 from svhdesc.paths import models_dir
 
 
-def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path, ...], timings: Timings) -> None:
+def write_variant(
+    compiled: Compiled,
+    directory: Path,
+    config_files: tuple[Path, ...],
+    timings: Timings,
+    sampled: dict[str, dict[str, Any]] | None = None,
+) -> None:
     """The compiled variant's assets, the probes its outputs read, every output of the registry, and the manifest,
-    into ``directory``."""
+    into ``directory``; ``sampled``: the results the variant's build used (``probes.cache.recording``), filled
+    until the manifest is written."""
     directory.mkdir(parents=True)
     (directory / "assets").mkdir()
     for name, data in sorted(compiled.assets.files.items()):
@@ -55,6 +64,7 @@ def write_variant(compiled: Compiled, directory: Path, config_files: tuple[Path,
         "inputs": inputs,
         "outputs": produced,
         "decompositions": compiled.assets.decompositions,
+        "sampled": sampled or {},
         "tools": tool_versions(),
     }
     manifest_file.write(directory, manifest)
@@ -79,11 +89,17 @@ def _write_all(
     shipped = sorted(p for p in models_dir().glob("*") if p.is_dir() and p.parent.resolve() != out.resolve())
     own = [out / v.name for v in config.select(names)] if trust_out else []
     hulls.seed_from_outputs([*shipped, *own])
-    written = []
-    for compiled in compile_variants(config, names, extra_packages, hulls, timings):
-        write_variant(compiled, directory / compiled.plan.variant.name, config.files, timings)
-        written.append(compiled.plan.variant.name)
-    return written
+    manifests = [m for m in (manifest_file.read(d) for d in [*shipped, *own]) if m is not None]
+    written: list[str] = []
+    with seeded(committed_results(manifests)):  # the sampled results, likewise
+        variants = compile_variants(config, names, extra_packages, hulls, timings)
+        while True:
+            with recording() as sampled:  # the variant's compile (its trial run) and its probes
+                compiled = next(variants, None)
+                if compiled is None:
+                    return written
+                write_variant(compiled, directory / compiled.plan.variant.name, config.files, timings, sampled)
+            written.append(compiled.plan.variant.name)
 
 
 def build(

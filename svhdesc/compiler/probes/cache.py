@@ -3,6 +3,10 @@
 Like the hulls: the same model, assets and sampling plan give the same result, so only a changed model is stepped
 again. A key hashes every input; an entry is one JSON file written atomically; an unreadable entry is a miss and an
 unwritable cache costs the next build the sampling, nothing else. ``SVHDESC_CACHE`` moves it with the hulls.
+
+Like the committed hulls, the results a built variant used are in its manifest (``sampled``: kind -> key -> value),
+and a build reads those of the shipped and its own outputs before the cache (``seeded``), so a fresh clone builds
+the committed models without stepping them; ``build --check`` trusts neither.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import json
 import os
 import tempfile
 import warnings
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
@@ -25,6 +29,10 @@ T = TypeVar("T")
 # Set while a build trusts no cached result (``build --check`` without ``--trust-cache``): every result is computed
 # again and replaces its entry, as the hulls are decomposed again.
 RECOMPUTE: ContextVar[bool] = ContextVar("recompute", default=False)
+# Results from built variants' manifests, read before the cache (kind -> key -> encoded value).
+SEEDS: ContextVar[Mapping[str, Mapping[str, Any]] | None] = ContextVar("seeds", default=None)
+# Set while a variant is built: every result it uses, computed or read, for its manifest.
+RECORD: ContextVar[dict[str, dict[str, Any]] | None] = ContextVar("record", default=None)
 
 
 @contextmanager
@@ -34,6 +42,36 @@ def recomputing(enabled: bool = True) -> Iterator[None]:
         yield
     finally:
         RECOMPUTE.reset(token)
+
+
+@contextmanager
+def seeded(entries: Mapping[str, Mapping[str, Any]]) -> Iterator[None]:
+    token = SEEDS.set(entries)
+    try:
+        yield
+    finally:
+        SEEDS.reset(token)
+
+
+@contextmanager
+def recording() -> Iterator[dict[str, dict[str, Any]]]:
+    """The results used while the block runs (kind -> key -> encoded value): a variant's manifest ``sampled``."""
+    used: dict[str, dict[str, Any]] = {}
+    token = RECORD.set(used)
+    try:
+        yield used
+    finally:
+        RECORD.reset(token)
+
+
+def committed_results(manifests: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The ``sampled`` results of built variants' manifests, merged by kind (a malformed section is no seed)."""
+    merged: dict[str, dict[str, Any]] = {}
+    for manifest in manifests:
+        for kind, entries in (manifest.get("sampled") or {}).items():
+            if isinstance(entries, dict):
+                merged.setdefault(kind, {}).update(entries)
+    return merged
 
 
 def cache_dir(kind: str) -> Path:
@@ -55,21 +93,31 @@ def content_key(parts: Iterable[bytes], assets: dict[str, bytes]) -> str:
 def remembered(
     cache: Path, key: str, compute: Callable[[], T], encode: Callable[[T], Any], decode: Callable[[Any], T]
 ) -> T:
-    """``compute()``'s result, from the entry ``key`` when it holds one that passes its check (never while
-    ``recomputing``).
+    """``compute()``'s result, from a committed manifest's ``sampled`` (``seeded``) or else from the entry ``key``
+    when it holds one that passes its check (neither while ``recomputing``); the cache folder's name is the kind.
 
     An entry names its key and carries the digest of its value: another key's entry (a copied file) or an edited
     value is one warning and is computed again, never used.
     """
-    entry = cache / f"{key}.json"
-    found = None if RECOMPUTE.get() else _read(entry, key)
+    entry, kind = cache / f"{key}.json", cache.name
+    found, origin = None, f"cache entry {entry}"
+    if not RECOMPUTE.get():
+        found = (SEEDS.get() or {}).get(kind, {}).get(key)
+        if found is None:
+            found = _read(entry, key)
+        else:
+            origin = f"the committed {kind} result {key[:16]}..."
     if found is not None:
         try:
-            return decode(found)
-        except (ValueError, TypeError, KeyError):
-            warnings.warn(f"cache entry {entry}: its value does not decode; computing it again", stacklevel=2)
+            result = decode(found)
+        except (ValueError, TypeError, KeyError, IndexError):
+            warnings.warn(f"{origin}: its value does not decode; computing it again", stacklevel=2)
+        else:
+            _record(kind, key, found)
+            return result
     result = compute()
     value = encode(result)
+    _record(kind, key, value)
     document = {"key": key, "sha256": _digest(value), "value": value}
     try:
         cache.mkdir(parents=True, exist_ok=True)
@@ -79,6 +127,12 @@ def remembered(
     except OSError:
         pass
     return result
+
+
+def _record(kind: str, key: str, value: Any) -> None:
+    used = RECORD.get()
+    if used is not None:
+        used.setdefault(kind, {})[key] = value
 
 
 def _digest(value: Any) -> str:

@@ -20,7 +20,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from svhdesc.compiler.pipeline.agreement import RTOL, TEXT_SUFFIXES, file_difference, text_difference
+from svhdesc.compiler.pipeline.agreement import (
+    RTOL,
+    TEXT_SUFFIXES,
+    file_difference,
+    manifest_difference,
+    text_difference,
+)
 from svhdesc.core import exact
 from tests.support import HULL_CHECK, REPO, run_cli
 
@@ -71,6 +77,25 @@ def test_text_agreement_rule() -> None:
     assert text_difference(old.replace(b"mass", b"mast"), old) is not None
     assert text_difference(old + b" ", old) is not None
     assert RTOL < 1e-9
+
+
+def test_sampled_results_agree_by_value_where_an_output_agrees_by_numbers(tmp_path: Path) -> None:
+    """The manifests' sampled results are keyed by the assets' bytes: where --check tolerates an output's last digits
+    (another CPU), the keys differ and the values must agree; with every output byte-equal, the keys must too
+    (seeded fault: the values rule dropped: the manifests of another CPU differ in "sampled")."""
+    import json
+
+    def manifest(name: str, sampled: dict[str, dict[str, object]]) -> Path:
+        path = tmp_path / name
+        path.write_text(json.dumps({"outputs": {"a.xml": name}, "sampled": sampled}))
+        return path
+
+    committed = manifest("old", {"capacities": {"k1": {"njmax": 7}}})
+    other_cpu = manifest("new", {"capacities": {"k2": {"njmax": 7}}})
+    assert manifest_difference(other_cpu, committed, {"a.xml"}) is None
+    assert "sampled" in (manifest_difference(other_cpu, committed, set()) or "")
+    moved = manifest("moved", {"capacities": {"k2": {"njmax": 8}}})
+    assert "sampled" in (manifest_difference(moved, committed, {"a.xml"}) or "")
 
 
 def test_every_text_output_is_compared_by_numbers() -> None:

@@ -3,6 +3,7 @@ result without sampling, any changed input is a miss, and a broken entry is samp
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -10,7 +11,7 @@ import pytest
 from svhdesc.compiler.export.batch import Capacities
 from svhdesc.compiler.probes import batch_capacities, collision_matrix
 from svhdesc.compiler.probes.cache import content_key, remembered
-from tests.support import REPO, TESTS
+from tests.support import REPO, TESTS, VARIANTS
 
 VARIANT = REPO / "generated" / "svh_right"
 
@@ -157,3 +158,72 @@ def test_the_trial_run_is_stepped_once_per_model(tmp_path: Path, monkeypatch: py
         hulls = HullSource(HullCache(tmp_path / "hulls"))
         list(steps.compile_variants(load_config(TESTS / "data" / "mini" / "mini.yaml"), [], {}, hulls, Timings()))
     assert stepped == [None]
+
+
+# What each sampling function computes: its cache folder's name, the kind in a manifest's ``sampled``.
+KINDS = {"diverges": "trial_run", "collision_matrix": "collision_matrix", "sample_capacities": "capacities"}
+
+
+def _counting_probes(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The kinds of the results sampled from now on, one entry each time one is computed instead of read."""
+    from svhdesc.compiler.probes import stability
+
+    computed: list[str] = []
+    for module in (stability, collision_matrix, batch_capacities):
+        for name in KINDS.keys() & vars(module).keys():
+            real = getattr(module, name)
+            monkeypatch.setattr(module, name, lambda *a, _f=real, _k=KINDS[name]: computed.append(_k) or _f(*a))
+    return computed
+
+
+def test_a_build_reads_the_sampled_results_of_its_committed_outputs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A built variant's manifest holds the results its build sampled; a later build into the same folder with an
+    empty cache (a fresh clone's) reads them there and samples nothing, writing the same manifest, while a build
+    that trusts nothing (``recomputing``, build --check's) samples again (seeded faults: remembered ignoring the
+    seeds, and every probe is computed again; remembered reading them while recomputing, and none is)."""
+    from svhdesc.compiler.decompose.cache import HullCache
+    from svhdesc.compiler.decompose.source import HullSource
+    from svhdesc.compiler.pipeline import builder
+    from svhdesc.compiler.probes.cache import recomputing
+    from svhdesc.core.settings.config import load_config
+
+    config, out = load_config(TESTS / "data" / "mini" / "mini.yaml"), tmp_path / "out"
+    (variant,) = config.variants
+    computed = _counting_probes(monkeypatch)
+
+    def build(cache: str) -> dict[str, dict[str, object]]:
+        monkeypatch.setenv("SVHDESC_CACHE", str(tmp_path / cache))
+        builder.build(config, [], out, {}, HullSource(HullCache(tmp_path / cache / "hulls")))
+        return json.loads((out / variant / "manifest.json").read_text())
+
+    first = build("one")
+    assert sorted(computed) == sorted(KINDS.values())  # the mini robot samples each kind once
+    assert {kind: len(entries) for kind, entries in first["sampled"].items()} == dict.fromkeys(KINDS.values(), 1)
+    computed.clear()
+    assert build("two") == first and computed == []  # an empty cache: each read from the committed manifest
+    with recomputing():
+        assert build("three") == first
+    assert sorted(computed) == sorted(KINDS.values())
+
+
+def test_a_committed_result_that_does_not_decode_is_computed_again(tmp_path: Path) -> None:
+    """A manifest's result that its probe cannot read (hand-edited) is one warning naming it and computed again
+    (seeded fault: the decode error escaping remembered: the build fails)."""
+    from svhdesc.compiler.probes.cache import seeded
+
+    with seeded({"capacities": {"k" * 64: "not a mapping"}}), pytest.warns(UserWarning, match="committed capacities"):
+        result = remembered(tmp_path / "capacities", "k" * 64, lambda: {"n": 1}, dict, lambda v: dict(v))
+    assert result == {"n": 1}
+
+
+def test_each_shipped_manifest_holds_its_own_sampled_results() -> None:
+    """Every shipped variant's manifest holds one result of each kind, and no variant another's: the recording is
+    per variant, so that building one variant alone writes the manifest a build of all writes (seeded fault: one
+    recording for the whole build: svh_left's manifest holds svh_right's results too)."""
+    manifests = {v: json.loads((REPO / "generated" / v / "manifest.json").read_text()) for v in VARIANTS}
+    for manifest in manifests.values():
+        assert {kind: len(entries) for kind, entries in manifest["sampled"].items()} == dict.fromkeys(KINDS.values(), 1)
+    keys = [key for manifest in manifests.values() for entries in manifest["sampled"].values() for key in entries]
+    assert len(keys) == len(set(keys)) == 3 * len(manifests)
