@@ -186,6 +186,7 @@ def test_pinocchio_mimic_model_in_any_joint_order(tmp_path: Path) -> None:
 # --- pybullet --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # drives the engine for simulated seconds
 @pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
 @pytest.mark.parametrize("step", [1e-3, None], ids=["1ms", "default_step"])  # None: pybullet's own 1/240 s
 def test_pybullet(variant: str, step: float | None, capfd: pytest.CaptureFixture[str]) -> None:
@@ -263,6 +264,7 @@ def test_drake_loads_with_couplers(variant: str) -> None:
     np.testing.assert_allclose(np.array(tips), _mujoco_tips(variant, full), atol=FK_TOL, rtol=0)
 
 
+@pytest.mark.slow  # drives the engine for simulated seconds
 def test_drake_couplings_hold_while_driven() -> None:
     pytest.importorskip("pydrake")
     from pydrake.systems.analysis import Simulator
@@ -290,6 +292,7 @@ def test_drake_couplings_hold_while_driven() -> None:
 # --- DART ------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # drives the engine for simulated seconds
 @pytest.mark.parametrize("variant", ["svh_right", "svh_left", "ur5_svh_right"])
 def test_dart(variant: str, capfd: pytest.CaptureFixture[str]) -> None:
     dart = pytest.importorskip("dartpy")
