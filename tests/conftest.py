@@ -18,6 +18,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -26,7 +27,13 @@ from typing import Any
 import pytest
 import yaml
 
-from svhdesc.paths import user_cache
+# Bytecode is cached, as Python does by default, whatever PYTHONDONTWRITEBYTECODE says (container images often set
+# it): else each xdist worker rewrites every test module's asserts anew (4-5 s of collection) and each of the suite's
+# hundreds of CLI subprocesses compiles svhdesc again. The caches are __pycache__/ folders, which git ignores.
+sys.dont_write_bytecode = False
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
+from svhdesc.paths import user_cache  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 TESTS = REPO / "tests"

@@ -66,8 +66,8 @@ def test_mass_links_applies_to_a_link_without_geometry(panda) -> None:  # type: 
     assert model.body_subtreemass[0] == pytest.approx(17.96 + 0.05 + 1e-4, abs=1e-6)
 
 
-def _init(tmp_path: Path, source: Path, *extra: str):  # type: ignore[no-untyped-def]
-    return run_cli("init", str(source), "--out", str(tmp_path / "robot.yaml"), *extra)
+def _init(tmp_path: Path, source: Path, *extra: str, in_process: bool = False):  # type: ignore[no-untyped-def]
+    return run_cli("init", str(source), "--out", str(tmp_path / "robot.yaml"), *extra, in_process=in_process)
 
 
 @pytest.mark.slow
@@ -131,7 +131,7 @@ def test_init_home_clear_of_the_stops_and_damping_from_the_rating(tmp_path: Path
 def test_init_bad_input(tmp_path: Path, text: str, message: str) -> None:
     source = tmp_path / "robot.urdf"
     source.write_text(text)
-    result = _init(tmp_path, source)
+    result = _init(tmp_path, source, in_process=True)  # they fail early: no interpreter start
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], result.stderr
@@ -139,5 +139,5 @@ def test_init_bad_input(tmp_path: Path, text: str, message: str) -> None:
 
 
 def test_init_missing_file(tmp_path: Path) -> None:
-    result = _init(tmp_path, tmp_path / "nope.urdf")
+    result = _init(tmp_path, tmp_path / "nope.urdf", in_process=True)
     assert result.returncode == 2 and result.stderr.startswith("error:") and "nope.urdf" in result.stderr
