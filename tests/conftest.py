@@ -156,7 +156,7 @@ def validated(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple
         if variant not in runs:
             folder = tmp_path_factory.mktemp(f"validated-{variant}")
             report, plots = folder / "report.json", folder / "plots"
-            result = run_cli("validate", variant, "--json", str(report), "--plots", str(plots))
+            result = run_cli("validate", variant, "--json", str(report), "--plots", str(plots), in_process=True)
             checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
             runs[variant] = (result, checks, plots)
         return runs[variant]

@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import traceback
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +38,9 @@ def run_cli(
     in_process: bool = False,
 ) -> subprocess.CompletedProcess[str]:
     """``svhdesc ARGS`` in a subprocess of ``python`` (``env`` adds to the inherited environment), or with
-    ``in_process`` through click's runner in this process: no interpreter start, for the many runs that fail early."""
+    ``in_process`` through click's runner in this process: no interpreter start, for the many runs that fail early,
+    and for validate's runs, which then share the worker's imports (JAX and MJX, Warp: about 10 s of CPU a process).
+    An uncaught exception ends the in-process run with 1 and its traceback on stderr, as it ends the CLI."""
     if in_process:
         from click.testing import CliRunner
 
@@ -45,7 +48,10 @@ def run_cli(
 
         assert cwd == REPO and python == sys.executable, "in-process runs take no cwd or python"
         result = CliRunner().invoke(main, list(args), env=env)  # env: set for the call, then restored
-        return subprocess.CompletedProcess(args, result.exit_code, result.stdout, result.stderr)
+        stderr = result.stderr
+        if result.exc_info is not None and not isinstance(result.exception, SystemExit):
+            stderr += "".join(traceback.format_exception(*result.exc_info))
+        return subprocess.CompletedProcess(args, result.exit_code, result.stdout, stderr)
     return subprocess.run(
         [python, "-m", "svhdesc.cli", *args],
         cwd=cwd,

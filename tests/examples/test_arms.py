@@ -112,7 +112,7 @@ def test_the_arm_validates(arm: tuple[str, Path], tmp_path: Path) -> None:
     report = tmp_path / "report.json"
     args = ("validate", "--config", str(config_of(name)), "--out", str(folder.parent), "--json", str(report))
     every = name == next(iter(ARMS))
-    result = run_cli(*args) if every else run_cli(*args, "--checks", ARM_CHECKS)
+    result = run_cli(*args, in_process=True) if every else run_cli(*args, "--checks", ARM_CHECKS, in_process=True)
     assert result.returncode == 0, result.stdout + result.stderr
     checks = {c["name"]: c["status"] for c in json.loads(report.read_text())["variants"][0]["checks"]}
     if every:

@@ -127,7 +127,9 @@ def test_example_validates(example: tuple[str, Path, Path], tmp_path: Path) -> N
     """Every check that applies passes (exit 0); those that do not are skipped and listed with why."""
     name, config, folder = example
     report = tmp_path / "report.json"
-    result = run_cli("validate", "--config", str(config), "--out", str(folder.parent), "--json", str(report))
+    result = run_cli(
+        "validate", "--config", str(config), "--out", str(folder.parent), "--json", str(report), in_process=True
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
     assert {n for n, c in checks.items() if c["status"] == "skipped"} == SKIPPED[name]

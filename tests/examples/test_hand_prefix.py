@@ -68,7 +68,8 @@ def test_validate_finds_the_hand_under_another_prefix(built: Path, tmp_path: Pat
     the left hand against the vendor's left parts."""
     report = tmp_path / "report.json"
     config = built.parent.parent / "hands.yaml"
-    result = run_cli("validate", str(built), "--config", str(config), "--checks", CHECKS, "--json", str(report))
+    args = ("validate", str(built), "--config", str(config), "--checks", CHECKS, "--json", str(report))
+    result = run_cli(*args, in_process=True)
     checks = {c["name"]: c for c in json.loads(report.read_text())["variants"][0]["checks"]}
     assert set(checks) == set(CHECKS.split(","))
     assert all(c["status"] == "pass" for c in checks.values()), result.stdout[-4000:]

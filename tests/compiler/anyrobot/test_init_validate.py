@@ -61,7 +61,8 @@ def test_init_build_validate_unedited(robot: str, tmp_path: Path) -> None:
     result = run_cli("build", "--config", str(config), "--out", str(out))
     assert result.returncode == 0, result.stderr
     checks = () if robot in FULL else ("--checks", CHECKS)
-    result = run_cli("validate", "--config", str(config), "--out", str(out), "--json", str(report), *checks)
+    args = ("validate", "--config", str(config), "--out", str(out), "--json", str(report), *checks)
+    result = run_cli(*args, in_process=True)
     verdicts = {c["name"]: (c["status"], c["detail"]) for c in json.loads(report.read_text())["variants"][0]["checks"]}
     failed = {name: detail for name, (status, detail) in verdicts.items() if status not in ("pass", "skipped")}
     assert result.returncode == 0 and not failed, failed or result.stderr
