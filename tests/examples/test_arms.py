@@ -36,7 +36,7 @@ def arm(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
     """(variant, its built folder): one build per arm, shared by this module's tests."""
     name = request.param
     out = tmp_path_factory.mktemp(name) / "out"
-    result = run_cli("build", "--config", str(config_of(name)), "--out", str(out))
+    result = run_cli("build", "--config", str(config_of(name)), "--out", str(out), in_process=True)
     assert result.returncode == 0, result.stderr
     return name, out / name
 

@@ -46,7 +46,7 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> Path:
     config.write_text(
         yaml.safe_dump({"extends": str(REPO / "config" / "svhdesc.yaml"), "variants": {VARIANT: variant}})
     )
-    result = run_cli("build", "--config", str(config), "--out", str(work / "out"))
+    result = run_cli("build", "--config", str(config), "--out", str(work / "out"), in_process=True)
     assert result.returncode == 0, result.stderr
     return work / "out" / VARIANT
 

@@ -29,7 +29,8 @@ def ur5_alone(tmp_path_factory: pytest.TempPathFactory) -> Path:
     if not VENDOR_UR.is_dir():
         pytest.skip(f"no vendor ur_description at {VENDOR_UR}")
     out = tmp_path_factory.mktemp("ur5") / "out"
-    result = run_cli("build", "--config", str(UR5), "--out", str(out), "--package", f"ur_description={VENDOR_UR}")
+    args = ("build", "--config", str(UR5), "--out", str(out), "--package", f"ur_description={VENDOR_UR}")
+    result = run_cli(*args, in_process=True)
     assert result.returncode == 0, result.stderr
     return out / "ur5" / "ur5.xml"
 

@@ -39,7 +39,7 @@ variants:
 def panda(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]
     folder = tmp_path_factory.mktemp("panda")
     (folder / "panda.yaml").write_text(USER_CONFIG)
-    result = run_cli("build", "--config", str(folder / "panda.yaml"), "--out", str(folder / "out"))
+    result = run_cli("build", "--config", str(folder / "panda.yaml"), "--out", str(folder / "out"), in_process=True)
     return folder, result
 
 
@@ -80,7 +80,7 @@ def test_init_then_build_pybullet_panda(tmp_path: Path) -> None:
     assert spec["couplings"] == [{"joint": "panda_finger_joint2", "follows": "panda_finger_joint1", "poly": [0.0, 1.0]}]
     assert config["arm"]["joints"] == [f"panda_joint{i}" for i in range(1, 8)]
     assert config["packages"] == {"meshes": "python:pybullet_data/franka_panda/meshes"}
-    built = run_cli("build", "--config", str(tmp_path / "robot.yaml"), "--out", str(tmp_path / "out"))
+    built = run_cli("build", "--config", str(tmp_path / "robot.yaml"), "--out", str(tmp_path / "out"), in_process=True)
     assert built.returncode == 0, built.stderr
 
 

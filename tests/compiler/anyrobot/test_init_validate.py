@@ -56,9 +56,9 @@ def test_init_build_validate_unedited(robot: str, tmp_path: Path) -> None:
     if not source.is_file():
         pytest.skip(f"{source} not installed (pip install example-robot-data pybullet: the test extra)")
     config, out, report = tmp_path / "robot.yaml", tmp_path / "out", tmp_path / "report.json"
-    result = run_cli("init", str(source), "--out", str(config))
+    result = run_cli("init", str(source), "--out", str(config), in_process=True)
     assert result.returncode == 0, result.stderr
-    result = run_cli("build", "--config", str(config), "--out", str(out))
+    result = run_cli("build", "--config", str(config), "--out", str(out), in_process=True)
     assert result.returncode == 0, result.stderr
     checks = () if robot in FULL else ("--checks", CHECKS)
     args = ("validate", "--config", str(config), "--out", str(out), "--json", str(report), *checks)

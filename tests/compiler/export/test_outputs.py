@@ -209,7 +209,7 @@ def test_urdf_and_mjcf_describe_the_same_kinematics(variant: str) -> None:
 def test_outputs_are_byte_identical_across_builds(tmp_path) -> None:  # type: ignore[no-untyped-def]
     from tests.support import run_cli
 
-    result = run_cli("build", "svh_left", "--out", str(tmp_path))
+    result = run_cli("build", "svh_left", "--out", str(tmp_path), in_process=True)
     assert result.returncode == 0, result.stderr
     first = built() / "svh_left"
     for path in sorted(first.rglob("*")):

@@ -77,7 +77,7 @@ def test_unknown_config_key_is_refused(tmp_path: Path) -> None:
     assert run_cli("list", "--config", str(path)).returncode == 0
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump({**good, "contact": {"modle": "point"}}))
-    result = run_cli("build", "--config", str(path), "--out", str(tmp_path / "out"))
+    result = run_cli("build", "--config", str(path), "--out", str(tmp_path / "out"), in_process=True)
     assert result.returncode == 2
     assert result.stderr.startswith(f"error: {path}:") and "['modle']" in result.stderr, result.stderr
     assert not (tmp_path / "out").exists()
