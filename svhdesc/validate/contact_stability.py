@@ -139,14 +139,12 @@ class _Press:
         return qpos, force, touch, None
 
     def tip_contacts(self) -> list[int]:
-        """Indices of the box's contacts with the fingertip."""
-        box, tip_geoms = self.box, self.tip_geoms
-        return [
-            index
-            for index, contact in enumerate(self.data.contact[: self.data.ncon])
-            if (contact.geom1 == box and contact.geom2 in tip_geoms)
-            or (contact.geom2 == box and contact.geom1 in tip_geoms)
-        ]
+        """Indices of the box's contacts with the fingertip (on the contact list's columns: a Python object per
+        contact and step cost about 1.5 s of the check's 5)."""
+        contacts, tips = self.data.contact, list(self.tip_geoms)
+        first, second = contacts.geom1, contacts.geom2
+        touching = ((first == self.box) & np.isin(second, tips)) | ((second == self.box) & np.isin(first, tips))
+        return [int(i) for i in np.flatnonzero(touching)]
 
     def normal_force(self) -> float:
         """The normal force of the box's contacts with the fingertip."""
