@@ -6,10 +6,11 @@ Bad input: one line on stderr, exit code 2.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import warnings
 from collections.abc import Callable, Collection
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import wraps
 from pathlib import Path
 from typing import Any
@@ -412,6 +413,46 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     "without it they fail the run. Optional Python extras beyond 'validate' (batch, batch-mjx) need no flag: "
     "what needs one that is not installed is skipped with the reason.",
 )
+@click.option(
+    "--tier",
+    type=click.Choice(["static", "full"]),
+    default=None,
+    help="On robot files (PATH): static, the file's own numbers without simulating (the only tier on files so far).",
+)
+@click.option(
+    "--format",
+    "output_format",
+    type=click.Choice(["text", "json", "github", "junit"]),
+    default="text",
+    show_default=True,
+    help="On robot files: text (file:line: check: message), json, github (workflow annotations) or junit.",
+)
+@click.option("--select", "select", multiple=True, metavar="NAME[,NAME]", help="On robot files: only these checks.")
+@click.option(
+    "--ignore", "ignore", multiple=True, metavar="NAME[,NAME]", help="On robot files: leave these checks out."
+)
+@click.option(
+    "--baseline",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="On robot files: findings listed in this file (from --write-baseline) do not fail the run.",
+)
+@click.option(
+    "--write-baseline",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="On robot files: write every finding of this run to FILE as the baseline, and exit 0.",
+)
+@click.option(
+    "--junit", "junit_path", type=click.Path(path_type=Path), default=None, help="On robot files: also write JUnit XML."
+)
+@click.option(
+    "--package",
+    "packages",
+    multiple=True,
+    metavar="NAME=DIR",
+    help="On robot files: where package://NAME/ resolves (else ROS_PACKAGE_PATH, then the folders above the file).",
+)
 @config_option
 @_friendly
 def validate_command(
@@ -426,9 +467,21 @@ def validate_command(
     seed: int,
     vendor_meshes: Path | None,
     allow_missing_tools: bool,
+    tier: str | None,
+    output_format: str,
+    select: tuple[str, ...],
+    ignore: tuple[str, ...],
+    baseline: Path | None,
+    write_baseline: Path | None,
+    junit_path: Path | None,
+    packages: tuple[str, ...],
     config_path: Path | None,
 ) -> None:
-    """Validate built VARIANTS (all under OUT by default) or one --urdf/--mjcf pair.
+    """Validate robot files as they stand (PATH: a URDF, an MJCF, a folder), built VARIANTS (all under OUT by
+    default) or one --urdf/--mjcf pair.
+
+    On robot files each finding is printed at its file:line with the value that would pass, where one would; exit 0
+    when every check passes, 1 on a finding not in --baseline, 2 when a file cannot be read.
 
     Prints a table per variant (check, measured value, bound, status). Checks that do not apply to a
     robot (no hand, no couplings, no keyframes, ...) are skipped and listed with why. Exit 0 when every
@@ -437,6 +490,9 @@ def validate_command(
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
     require_extra("validate", "'svhdesc validate'")
+    file_options = FileOptions(tier, output_format, select, ignore, baseline, write_baseline, junit_path, packages)
+    if _validated_as_files(variants, out, urdf_path, file_options):
+        return
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
     from svhdesc.validate.report import all_passed, render_report, write_json
 
@@ -446,17 +502,7 @@ def validate_command(
 
         _config_exists(config_path)
         load_config(config_path)
-    if (urdf_path is None) != (mjcf_path is None):
-        raise SvhdescError("--urdf and --mjcf go together")
-    if urdf_path is not None and mjcf_path is not None:
-        if variants:
-            raise SvhdescError("give either VARIANTS or --urdf/--mjcf, not both")
-        for path in (urdf_path, mjcf_path):
-            if not path.is_file():
-                raise SvhdescError(f"{path}: no such file")
-        pairs = [(urdf_path, mjcf_path)]
-    else:
-        pairs = built_variants(out or models_dir(), variants)
+    pairs = _pairs(variants, urdf_path, mjcf_path) or built_variants(out or models_dir(), variants)
     options = Options(seed=seed, samples=samples, plots=plots)
     if vendor_meshes is not None:
         options = replace(options, vendor_meshes=vendor_meshes)
@@ -474,6 +520,123 @@ def validate_command(
             click.echo(f"{name}: failed: {', '.join(names)}", err=True)
         sys.exit(1)
     click.echo(all_passed(reports))
+
+
+def _pairs(variants: tuple[str, ...], urdf_path: Path | None, mjcf_path: Path | None) -> list[tuple[Path, Path]]:
+    """The --urdf/--mjcf pair, checked; [] without them."""
+    if (urdf_path is None) != (mjcf_path is None):
+        raise SvhdescError("--urdf and --mjcf go together")
+    if urdf_path is None or mjcf_path is None:
+        return []
+    if variants:
+        raise SvhdescError("give either VARIANTS or --urdf/--mjcf, not both")
+    for path in (urdf_path, mjcf_path):
+        if not path.is_file():
+            raise SvhdescError(f"{path}: no such file")
+    return [(urdf_path, mjcf_path)]
+
+
+@dataclass(frozen=True)
+class FileOptions:
+    tier: str | None
+    output_format: str
+    select: tuple[str, ...]
+    ignore: tuple[str, ...]
+    baseline: Path | None
+    write_baseline: Path | None
+    junit_path: Path | None
+    packages: tuple[str, ...]
+
+    def given(self) -> bool:
+        return any(
+            (
+                self.tier,
+                self.output_format != "text",
+                self.select,
+                self.ignore,
+                self.baseline,
+                self.write_baseline,
+                self.junit_path,
+                self.packages,
+            )
+        )
+
+
+def _validated_as_files(
+    variants: tuple[str, ...], out: Path | None, urdf_path: Path | None, options: FileOptions
+) -> bool:
+    """Validate VARIANTS as robot files when they name files; False when they are built variants."""
+    if _robot_paths(variants, out, urdf_path):
+        _validate_robot_files([Path(v) for v in variants], options)
+        return True
+    if options.given():
+        raise SvhdescError(
+            "--tier, --format, --select, --ignore, --baseline, --write-baseline, --junit and --package "
+            "apply to robot files (PATH), not to built variants"
+        )
+    return False
+
+
+def _robot_paths(variants: tuple[str, ...], out: Path | None, urdf_path: Path | None) -> bool:
+    """Whether VARIANTS name robot files or folders of them rather than built variants."""
+    if not variants or urdf_path is not None or out is not None:
+        return False
+    for name in variants:
+        path = Path(name)
+        if path.is_file() or path.suffix in {".urdf", ".xml", ".xacro"}:
+            return True
+        if path.is_dir() and not (path / f"{path.name}.xml").is_file():
+            return True
+    return False
+
+
+def _check_names(items: tuple[str, ...], known: tuple[str, ...]) -> set[str]:
+    names = {part.strip() for item in items for part in item.split(",") if part.strip()}
+    for name in sorted(names - set(known)):
+        raise SvhdescError(f"unknown check '{name}' (checks on robot files: {', '.join(known)})")
+    return names
+
+
+def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
+    from svhdesc.validate.files import known_checks, robot_files, validate_file
+    from svhdesc.validate.findings import apply_baseline, baseline_text, junit, render
+
+    if options.tier == "full":
+        raise SvhdescError(
+            "--tier full on robot files is not available yet: use --tier static, or svhdesc init -> build -> "
+            "validate VARIANT for the simulated checks"
+        )
+    known = known_checks()
+    selected = _check_names(options.select, known) or set(known)
+    selected -= _check_names(options.ignore, known)
+    from svhdesc.core.source.packages import parse_package_option
+
+    package_dirs = dict(parse_package_option(p) for p in options.packages)
+    reports = [
+        validate_file(path, selected, package_dirs, walked) for path, walked in robot_files(paths)
+    ]  # all read before any write
+    if options.write_baseline is not None:
+        _write_atomically(options.write_baseline, baseline_text(reports))
+        click.echo(
+            f"baseline: {sum(len(c.findings) for r in reports for c in r.checks)} finding(s)"
+            f" -> {options.write_baseline}"
+        )
+        return
+    if options.baseline is not None:
+        apply_baseline(reports, options.baseline)
+    click.echo(render(reports, options.output_format), nl=False)
+    if options.junit_path is not None:
+        _write_atomically(options.junit_path, junit(reports))
+    if any(r.failed for r in reports):
+        sys.exit(1)
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    if path.is_dir():
+        raise SvhdescError(f"{path}: is a folder")
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_text(text)
+    os.replace(temporary, path)
 
 
 def _stage_line(line: str) -> None:

@@ -1,0 +1,237 @@
+"""`svhdesc validate PATH...`: robot files as they stand (a URDF, an MJCF, a folder of them), no config, no build.
+
+Each file gets a FileReport; a file that cannot be read or parsed at all is one SvhdescError (exit 2) naming it.
+"""
+
+from __future__ import annotations
+
+import re
+import stat
+import time
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from svhdesc.errors import SvhdescError
+from svhdesc.validate.findings import CheckResult, FileReport, Finding
+from svhdesc.validate.static_urdf import RULES, UrdfSource
+
+STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
+TIERS = ("static", "full")
+_SKIP_DIRS = {".git", ".hg", ".svn", "node_modules", "__pycache__", ".venv", "build", "install", "log"}
+
+
+def known_checks() -> tuple[str, ...]:
+    return ("xml", *RULES, *STATIC_MJCF_CHECKS)
+
+
+def _parser() -> etree.XMLParser:
+    # No entities, no network, no DTD loading: a validator runs on a pull request's files.
+    return etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+
+
+def _regular(path: Path) -> None:
+    try:
+        mode = path.stat().st_mode
+    except OSError as exc:
+        raise SvhdescError(f"{path}: {exc.strerror.lower() if exc.strerror else exc}") from None
+    if not stat.S_ISREG(mode):
+        raise SvhdescError(f"{path}: not a regular file")
+
+
+def read_xml(path: Path) -> etree._Element:
+    _regular(path)
+    try:
+        return etree.parse(str(path), _parser()).getroot()
+    except etree.XMLSyntaxError as exc:
+        line = exc.position[0] if exc.position else exc.lineno
+        raise SvhdescError(f"{path}:{line}: not well-formed XML ({exc.msg})") from None
+    except OSError as exc:
+        raise SvhdescError(f"{path}: cannot be read ({exc})") from None
+
+
+def robot_files(paths: list[Path]) -> list[tuple[Path, bool]]:
+    """The files to validate, each with whether a folder's walk found it: each file given, and in each folder every
+    *.urdf and every MJCF (*.xml rooted at <mujoco>) that no other file there includes, as a linter walks a tree."""
+    found: list[tuple[Path, bool]] = []
+    for path in paths:
+        if path.is_dir():
+            inside = _walk(path)
+            if not inside:
+                raise SvhdescError(f"{path}: no robot file in it (*.urdf, or *.xml rooted at <robot> or <mujoco>)")
+            found.extend((p, True) for p in inside)
+        elif path.suffix == ".xacro" or path.name.endswith(".urdf.xacro"):
+            raise SvhdescError(
+                f"{path}: a xacro source; validate PATH reads URDF and MJCF files (expand it with xacro first)"
+            )
+        else:
+            _regular(path)
+            found.append((path, False))
+    return found
+
+
+def _walk(folder: Path) -> list[Path]:
+    candidates = []
+    for path in sorted(folder.rglob("*")):
+        if any(part in _SKIP_DIRS or part.startswith(".") for part in path.relative_to(folder).parts[:-1]):
+            continue
+        if path.suffix in {".urdf", ".xml"} and path.is_file():
+            candidates.append(path)
+    roots: dict[Path, str] = {}
+    included: set[Path] = set()
+    for path in candidates:
+        try:
+            root = etree.parse(str(path), _parser()).getroot()
+        except (etree.XMLSyntaxError, OSError):
+            if path.suffix == ".urdf":
+                roots[path] = "robot"  # a broken URDF is still one to report
+            continue
+        roots[path] = root.tag if isinstance(root.tag, str) else ""
+        if root.tag == "mujoco":
+            included.update((path.parent / i.get("file", "")).resolve() for i in root.iter("include"))
+    return [p for p, tag in roots.items() if tag == "robot" or (tag == "mujoco" and p.resolve() not in included)]
+
+
+def _result(name: str, findings: list[Finding]) -> CheckResult:
+    return CheckResult(name, "fail" if findings else "pass", findings)
+
+
+def validate_file(path: Path, selected: set[str], packages: dict[str, Path], walked: bool = False) -> FileReport:
+    """One file's report. A file given by name that cannot be parsed is an SvhdescError; one found in a folder's walk
+    is a report whose xml check fails, so that one broken file does not hide the others' findings."""
+    started = time.perf_counter()
+    try:
+        root = read_xml(path)
+    except SvhdescError as exc:
+        if not walked:
+            raise
+        where, _, message = str(exc).partition(": ")
+        file, _, line = where.rpartition(":") if where.rpartition(":")[2].isdigit() else (where, "", "")
+        finding = Finding("xml", file, int(line) if line else None, message)
+        return FileReport(str(path), "unknown", [CheckResult("xml", "fail", [finding])], time.perf_counter() - started)
+    if root.tag == "robot":
+        report = FileReport(str(path), "urdf")
+        source = UrdfSource(path, root, packages)
+        report.checks.append(CheckResult("xml", "pass"))
+        for name, rule in RULES.items():
+            if name in selected:
+                report.checks.append(_result(name, rule(source)))
+    elif root.tag == "mujoco":
+        report = FileReport(str(path), "mjcf")
+        report.checks.append(CheckResult("xml", "pass"))
+        report.checks.extend(_mjcf_checks(path, selected))
+    else:
+        raise SvhdescError(f"{path}:{root.sourceline}: not a robot file (root <{root.tag}>, not <robot> or <mujoco>)")
+    report.checks = [c for c in report.checks if c.name in selected]
+    report.seconds = time.perf_counter() - started
+    return report
+
+
+def _mjcf_files(path: Path) -> list[tuple[Path, etree._Element]]:
+    """The MJCF and every file it includes, parsed (for the lines of named elements)."""
+    out, queue, seen = [], [path], set()
+    while queue:
+        current = queue.pop()
+        if current.resolve() in seen or not current.is_file():
+            continue
+        seen.add(current.resolve())
+        try:
+            root = etree.parse(str(current), _parser()).getroot()
+        except (etree.XMLSyntaxError, OSError):
+            continue
+        out.append((current, root))
+        queue.extend(current.parent / i.get("file", "") for i in root.iter("include"))
+    return out
+
+
+def _locate(files: list[tuple[Path, etree._Element]], tag: str, name: str) -> tuple[str, int | None]:
+    for path, root in files:
+        for element in root.iter(tag):
+            if element.get("name") == name:
+                return str(path), element.sourceline
+    return str(files[0][0]) if files else "", None
+
+
+def _mjcf_checks(path: Path, selected: set[str]) -> list[CheckResult]:
+    import mujoco
+
+    files = _mjcf_files(path)
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as exc:
+        message = str(exc).strip().splitlines()
+        line_match = re.search(r"line (\d+)", str(exc))
+        file_match = re.search(r"[Ff]ile '?([^',\s]+\.xml)", str(exc))
+        where = file_match.group(1) if file_match else str(path)
+        finding = Finding("mjcf_compile", where, int(line_match.group(1)) if line_match else None, " ".join(message))
+        rest = [CheckResult(n, "skipped", reason="the model does not compile") for n in STATIC_MJCF_CHECKS[1:]]
+        return [CheckResult("mjcf_compile", "fail", [finding]), *rest]
+    return [CheckResult("mjcf_compile", "pass"), _actuator_ranges(model, files), _keyframes(model, files)]
+
+
+def _actuator_ranges(model, files) -> CheckResult:  # type: ignore[no-untyped-def]
+    """A position actuator's ctrlrange within its joint's range: a target beyond the stop only pushes on it."""
+    import mujoco
+
+    findings = []
+    for i in range(model.nu):
+        actuator = model.actuator(i)
+        is_position = (
+            model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE
+            and model.actuator_gainprm[i, 0] == -model.actuator_biasprm[i, 1]
+        )
+        joint = int(model.actuator_trnid[i, 0])
+        if not (
+            is_position and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT and model.actuator_ctrllimited[i]
+        ):
+            continue
+        if not model.jnt_limited[joint]:
+            continue
+        lo, hi = model.jnt_range[joint]
+        clo, chi = model.actuator_ctrlrange[i]
+        slack = 1e-6 * max(1.0, hi - lo)
+        if clo < lo - slack or chi > hi + slack:
+            where, line = _locate(files, "position", actuator.name) if actuator.name else (str(files[0][0]), None)
+            if line is None and actuator.name:
+                where, line = _locate(files, "general", actuator.name)
+            findings.append(
+                Finding(
+                    "actuator_ranges",
+                    where,
+                    line,
+                    f"actuator '{actuator.name or i}': ctrlrange {clo:.6g} .. {chi:.6g} beyond joint "
+                    f"'{model.joint(joint).name}' range {lo:.6g} .. {hi:.6g}",
+                    f'ctrlrange="{max(clo, lo):.6g} {min(chi, hi):.6g}"',
+                )
+            )
+    if model.nu == 0:
+        return CheckResult("actuator_ranges", "skipped", reason="no actuators")
+    return _result("actuator_ranges", findings)
+
+
+def _keyframes(model, files) -> CheckResult:  # type: ignore[no-untyped-def]
+    """Every keyframe's joint positions within the joints' limits."""
+    if model.nkey == 0:
+        return CheckResult("keyframes", "skipped", reason="no keyframes")
+    findings = []
+    for k in range(model.nkey):
+        key = model.key(k)
+        for j in np.flatnonzero(model.jnt_limited):
+            kind = model.jnt_type[j]
+            if kind not in (2, 3):  # slide, hinge: one coordinate each
+                continue
+            q = float(key.qpos[model.jnt_qposadr[j]])
+            lo, hi = model.jnt_range[j]
+            if q < lo - 1e-6 or q > hi + 1e-6:
+                where, line = _locate(files, "key", key.name) if key.name else (str(files[0][0]), None)
+                findings.append(
+                    Finding(
+                        "keyframes",
+                        where,
+                        line,
+                        f"keyframe '{key.name or k}': joint '{model.joint(j).name}' at {q:.6g}, "
+                        f"outside {lo:.6g} .. {hi:.6g}",
+                    )
+                )
+    return _result("keyframes", findings)
