@@ -6,7 +6,6 @@ Bad input: one line on stderr, exit code 2.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import warnings
 from collections.abc import Callable, Collection
@@ -453,6 +452,13 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     metavar="NAME=DIR",
     help="On robot files: where package://NAME/ resolves (else ROS_PACKAGE_PATH, then the folders above the file).",
 )
+@click.option(
+    "--arg",
+    "xacro_args",
+    multiple=True,
+    metavar="NAME:=VALUE",
+    help="On xacro files: an argument, as xacro takes it (repeat for more).",
+)
 @config_option
 @_friendly
 def validate_command(
@@ -475,6 +481,7 @@ def validate_command(
     write_baseline: Path | None,
     junit_path: Path | None,
     packages: tuple[str, ...],
+    xacro_args: tuple[str, ...],
     config_path: Path | None,
 ) -> None:
     """Validate robot files as they stand (PATH: a URDF, an MJCF, a folder), built VARIANTS (all under OUT by
@@ -490,7 +497,9 @@ def validate_command(
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
     require_extra("validate", "'svhdesc validate'")
-    file_options = FileOptions(tier, output_format, select, ignore, baseline, write_baseline, junit_path, packages)
+    file_options = FileOptions(
+        tier, output_format, select, ignore, baseline, write_baseline, junit_path, packages, xacro_args
+    )
     if _validated_as_files(variants, out, urdf_path, file_options):
         return
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
@@ -546,6 +555,7 @@ class FileOptions:
     write_baseline: Path | None
     junit_path: Path | None
     packages: tuple[str, ...]
+    xacro_args: tuple[str, ...] = ()
 
     def given(self) -> bool:
         return any(
@@ -558,6 +568,7 @@ class FileOptions:
                 self.write_baseline,
                 self.junit_path,
                 self.packages,
+                self.xacro_args,
             )
         )
 
@@ -571,7 +582,7 @@ def _validated_as_files(
         return True
     if options.given():
         raise SvhdescError(
-            "--tier, --format, --select, --ignore, --baseline, --write-baseline, --junit and --package "
+            "--tier, --format, --select, --ignore, --baseline, --write-baseline, --junit, --package and --arg "
             "apply to robot files (PATH), not to built variants"
         )
     return False
@@ -612,8 +623,9 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
     from svhdesc.core.source.packages import parse_package_option
 
     package_dirs = dict(parse_package_option(p) for p in options.packages)
+    xacro_args = dict(_xacro_arg(a) for a in options.xacro_args)
     reports = [
-        validate_file(path, selected, package_dirs, walked) for path, walked in robot_files(paths)
+        validate_file(path, selected, package_dirs, walked, xacro_args) for path, walked in robot_files(paths)
     ]  # all read before any write
     if options.write_baseline is not None:
         _write_atomically(options.write_baseline, baseline_text(reports))
@@ -631,12 +643,11 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
         sys.exit(1)
 
 
-def _write_atomically(path: Path, text: str) -> None:
-    if path.is_dir():
-        raise SvhdescError(f"{path}: is a folder")
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(text)
-    os.replace(temporary, path)
+def _xacro_arg(value: str) -> tuple[str, str]:
+    name, sep, given = value.partition(":=")
+    if not sep or not name.strip():
+        raise SvhdescError(f"--arg {value!r}: expected NAME:=VALUE, as xacro takes arguments")
+    return name.strip(), given
 
 
 def _stage_line(line: str) -> None:
@@ -1154,6 +1165,8 @@ def _execute(variant: str, plan: Any, config: Any, over_ros2: bool) -> Any:
 
 def _write_atomically(path: Path, text: str) -> None:
     """``path`` holds the old or the new text, never part of it; nothing is left behind if writing fails."""
+    if path.is_dir():
+        raise SvhdescError(f"{path}: is a folder, not a file to write")
     temporary = path.with_name(path.name + ".tmp")
     try:
         temporary.write_text(text)

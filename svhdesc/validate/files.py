@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from svhdesc.core.source.packages import package_map
 from svhdesc.errors import SvhdescError
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
 from svhdesc.validate.static_urdf import RULES, UrdfSource
@@ -61,10 +62,6 @@ def robot_files(paths: list[Path]) -> list[tuple[Path, bool]]:
             if not inside:
                 raise SvhdescError(f"{path}: no robot file in it (*.urdf, or *.xml rooted at <robot> or <mujoco>)")
             found.extend((p, True) for p in inside)
-        elif path.suffix == ".xacro" or path.name.endswith(".urdf.xacro"):
-            raise SvhdescError(
-                f"{path}: a xacro source; validate PATH reads URDF and MJCF files (expand it with xacro first)"
-            )
         else:
             _regular(path)
             found.append((path, False))
@@ -76,11 +73,14 @@ def _walk(folder: Path) -> list[Path]:
     for path in sorted(folder.rglob("*")):
         if any(part in _SKIP_DIRS or part.startswith(".") for part in path.relative_to(folder).parts[:-1]):
             continue
-        if path.suffix in {".urdf", ".xml"} and path.is_file():
+        if (path.suffix in {".urdf", ".xml"} or path.name.endswith(".urdf.xacro")) and path.is_file():
             candidates.append(path)
     roots: dict[Path, str] = {}
     included: set[Path] = set()
     for path in candidates:
+        if is_xacro(path):  # a robot a xacro expands to; macro libraries (*.xacro alone) are only included
+            roots[path] = "robot"
+            continue
         try:
             root = etree.parse(str(path), _parser()).getroot()
         except (etree.XMLSyntaxError, OSError):
@@ -97,12 +97,52 @@ def _result(name: str, findings: list[Finding]) -> CheckResult:
     return CheckResult(name, "fail" if findings else "pass", findings)
 
 
-def validate_file(path: Path, selected: set[str], packages: dict[str, Path], walked: bool = False) -> FileReport:
-    """One file's report. A file given by name that cannot be parsed is an SvhdescError; one found in a folder's walk
-    is a report whose xml check fails, so that one broken file does not hide the others' findings."""
+def is_xacro(path: Path) -> bool:
+    return path.suffix == ".xacro"
+
+
+class _Packages(dict):  # type: ignore[type-arg]
+    """--package NAME=DIR, then ROS_PACKAGE_PATH, then the folder above the model that is the package, as ROS finds
+    $(find NAME) and package://NAME from a package's own tree."""
+
+    def __init__(self, given: dict[str, Path], model: Path) -> None:
+        super().__init__(package_map(given))
+        self.model = model
+
+    def __missing__(self, name: str) -> Path:
+        from svhdesc.compiler.starter import find_beside
+
+        found = find_beside(name, self.model)
+        if found is None:
+            raise KeyError(name)
+        self[name] = found
+        return found
+
+
+def _read_robot(path: Path, packages: dict[str, Path], xacro_args: dict[str, str]) -> tuple[etree._Element, tuple]:
+    """The file's root element, and the files a xacro expansion read (none for a plain file)."""
+    if not is_xacro(path):
+        return read_xml(path), ()
+    from svhdesc.core.source.xacro import expand_xacro
+
+    _regular(path)
+    root, files = expand_xacro(path, xacro_args, _Packages(packages, path))
+    return root, (path.resolve(), *(f for f in files if f != path.resolve()))
+
+
+def validate_file(
+    path: Path,
+    selected: set[str],
+    packages: dict[str, Path],
+    walked: bool = False,
+    xacro_args: dict[str, str] | None = None,
+) -> FileReport:
+    """One file's report. A file given by name that cannot be parsed (or a xacro that does not expand) is an
+    SvhdescError; one found in a folder's walk is a report whose xml check fails, so that one broken file does not
+    hide the others' findings."""
     started = time.perf_counter()
     try:
-        root = read_xml(path)
+        root, xacro_files = _read_robot(path, packages, xacro_args or {})
     except SvhdescError as exc:
         if not walked:
             raise
@@ -112,7 +152,7 @@ def validate_file(path: Path, selected: set[str], packages: dict[str, Path], wal
         return FileReport(str(path), "unknown", [CheckResult("xml", "fail", [finding])], time.perf_counter() - started)
     if root.tag == "robot":
         report = FileReport(str(path), "urdf")
-        source = UrdfSource(path, root, packages)
+        source = UrdfSource(path, root, _Packages(packages, path), xacro_files)
         report.checks.append(CheckResult("xml", "pass"))
         for name, rule in RULES.items():
             if name in selected:

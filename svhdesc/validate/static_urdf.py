@@ -23,6 +23,9 @@ MOVABLE = {"revolute", "continuous", "prismatic"}
 LIMITED = {"revolute", "prismatic"}
 # A collision mesh whose bounding box is this many times its visual's diagonal is a unit or scale slip (mm for m).
 COLLISION_SCALE_BOUND = 10.0
+# A follower may overshoot its limit by what rounding its limit to 4 decimals leaves (the vendor's SVH xacro: 0.9704 x
+# 1.44889 = 1.4060026 against an upper limit of 1.406), not by more.
+MIMIC_SLACK = 1e-4
 _COUNTS = {"xyz": 3, "rpy": 3, "scale": 3}
 STATIC_URDF_CHECKS = ("xml", "structure", "numbers", "inertials", "joint_limits", "mimic", "meshes")
 
@@ -347,8 +350,7 @@ def check_mimic(source: UrdfSource) -> list[Finding]:
         multiplier = (_floats(mimic.get("multiplier")) or [1.0])[0]
         offset = (_floats(mimic.get("offset")) or [0.0])[0]
         ends = sorted(multiplier * q + offset for q in leads)
-        tolerance = 1e-6 * max(1.0, abs(ends[1] - ends[0]))
-        if ends[0] < follows[0] - tolerance or ends[1] > follows[1] + tolerance:
+        if ends[0] < follows[0] - MIMIC_SLACK or ends[1] > follows[1] + MIMIC_SLACK:
             found.append(
                 _finding(
                     source,

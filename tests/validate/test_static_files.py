@@ -270,13 +270,17 @@ def test_bad_input_is_one_error_line(tmp_path: Path) -> None:
     os.mkfifo(fifo)
     (tmp_path / "empty").mkdir()
     (tmp_path / "bad.urdf").write_text("<robot name='x'>\n<link>\n")
-    (tmp_path / "robot.urdf.xacro").write_text("<robot/>")
+    (tmp_path / "robot.urdf.xacro").write_text(XACRO)
+    (tmp_path / "macros.xacro").write_text(MACROS)
+    (tmp_path / "includes.urdf.xacro").write_text(XACRO.replace("macros.xacro", "absent.xacro"))
     (tmp_path / "ok.urdf").write_text("<robot name='x'><link name='a'/></robot>")
     cases = {
         (str(fifo),): "not a regular file",
         (str(tmp_path / "empty"),): "no robot file",
         (str(tmp_path / "bad.urdf"),): "bad.urdf:3: not well-formed XML",
-        (str(tmp_path / "robot.urdf.xacro"),): "a xacro source",
+        (str(tmp_path / "robot.urdf.xacro"),): "robot.urdf.xacro:3: xacro: Undefined substitution argument side",
+        (str(tmp_path / "robot.urdf.xacro"), "--arg", "side"): "expected NAME:=VALUE",
+        (str(tmp_path / "includes.urdf.xacro"),): "includes.urdf.xacro:4: xacro: included file",
         (str(tmp_path / "ok.urdf"), "--select", "nope"): "unknown check 'nope'",
         (str(tmp_path / "ok.urdf"), "--tier", "full"): "--tier full on robot files is not available yet",
     }
@@ -287,3 +291,46 @@ def test_bad_input_is_one_error_line(tmp_path: Path) -> None:
         assert code == 2 and len(lines) == 1 and lines[0].startswith("error:") and words in lines[0], (args, err)
     assert sorted(tmp_path.rglob("*")) == before
     assert _cli(str(tmp_path / "ok.urdf"))[0] == 0
+
+
+# A two-link arm as a xacro: an argument, a macro building names from a prefix, an include. The seeded fault (an
+# inverted limit) sits in the included macro file; the finding must point at that file's line, not the expansion's.
+XACRO = """<?xml version="1.0"?>
+<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:property name="side" value="$(arg side)"/>
+  <xacro:include filename="macros.xacro"/>
+  <link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>
+  </inertial></link>
+  <xacro:segment prefix="${side}" parent="base" lower="${LOWER}"/>
+</robot>
+"""
+MACROS = """<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:macro name="segment" params="prefix parent lower">
+    <link name="${prefix}_upper">
+      <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    </link>
+    <joint name="${prefix}_shoulder" type="revolute">
+      <parent link="${parent}"/>
+      <child link="${prefix}_upper"/>
+      <limit lower="${lower}" upper="1.0" effort="10" velocity="1"/>
+    </joint>
+  </xacro:macro>
+</robot>
+"""
+
+
+@pytest.mark.parametrize("lower, failing", [("-1.0", None), ("2.0", "joint_limits")])
+def test_a_xacro_with_arguments_reports_at_the_macro_files_line(tmp_path: Path, lower: str, failing: str) -> None:
+    (tmp_path / "arm.urdf.xacro").write_text(XACRO.replace("${LOWER}", lower))
+    (tmp_path / "macros.xacro").write_text(MACROS)
+    code, out, err = _cli(str(tmp_path / "arm.urdf.xacro"), "--arg", "side:=left")
+    if failing is None:
+        assert code == 0 and "all checks passed" in out, out + err
+        return
+    line = MACROS.splitlines().index('    <joint name="${prefix}_shoulder" type="revolute">') + 1
+    assert code == 1
+    assert f"macros.xacro:{line}: {failing}: joint 'left_shoulder'" in out, out
+    # A folder's walk expands *.urdf.xacro (the robots) but not the macro files they include.
+    files = robot_files([tmp_path])
+    assert [p.name for p, _ in files] == ["arm.urdf.xacro"]

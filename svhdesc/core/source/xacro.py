@@ -64,6 +64,13 @@ def expand_xacro(
         expression = re.search(r"when evaluating expression '(.+)'", str(exc))
         quoted = expression or re.search(r"'([^']+)'", message)
         token = quoted.group(1) if quoted else None
+        undefined = re.match(r"Undefined substitution argument (\S+)", message)
+        if undefined:  # an argument not given: the line that first reads it
+            token = f"$(arg {undefined.group(1)})"
+        missing = re.match(r"No such file or directory: (\S+)", message)
+        if missing:  # an include of a missing file: its name as the including file writes it ends the same
+            token = Path(missing.group(1)).name
+            message = f"included file {missing.group(1)} does not exist"
         # A macro's body fails where it is called: look for the culprit in the included files too.
         files = [where, *(Path(f) for f in xacro.all_includes if Path(f) != where)]
         located = next((found for f in files if (found := _locate(f, token)) != str(f)), str(where))
