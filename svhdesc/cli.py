@@ -577,7 +577,7 @@ def _validated_as_files(
     variants: tuple[str, ...], out: Path | None, urdf_path: Path | None, options: FileOptions
 ) -> bool:
     """Validate VARIANTS as robot files when they name files; False when they are built variants."""
-    if _robot_paths(variants, out, urdf_path):
+    if _robot_paths(variants, out, urdf_path) or _settings_name_models(variants, out, urdf_path):
         _validate_robot_files([Path(v) for v in variants], options)
         return True
     if options.given():
@@ -586,6 +586,18 @@ def _validated_as_files(
             "apply to robot files (PATH), not to built variants"
         )
     return False
+
+
+def _settings_name_models(variants: tuple[str, ...], out: Path | None, urdf_path: Path | None) -> bool:
+    """Whether `svhdesc validate` alone is to validate the models a [tool.svhdesc] table lists."""
+    from svhdesc.validate.settings import find_pyproject, load_settings
+
+    if variants or urdf_path is not None or out is not None:
+        return False
+    pyproject = find_pyproject(Path.cwd())
+    if pyproject is None or "[tool.svhdesc" not in pyproject.read_text(encoding="utf-8", errors="replace"):
+        return False
+    return bool(load_settings().models)
 
 
 def _robot_paths(variants: tuple[str, ...], out: Path | None, urdf_path: Path | None) -> bool:
@@ -609,8 +621,11 @@ def _check_names(items: tuple[str, ...], known: tuple[str, ...]) -> set[str]:
 
 
 def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
-    from svhdesc.validate.files import known_checks, robot_files, validate_file
+    from svhdesc.core.source.packages import parse_package_option
+    from svhdesc.validate.files import known_checks
     from svhdesc.validate.findings import apply_baseline, baseline_text, junit, render
+    from svhdesc.validate.models import CommandLine, model_runs
+    from svhdesc.validate.settings import load_settings
 
     if options.tier == "full":
         raise SvhdescError(
@@ -618,15 +633,15 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
             "validate VARIANT for the simulated checks"
         )
     known = known_checks()
-    selected = _check_names(options.select, known) or set(known)
-    selected -= _check_names(options.ignore, known)
-    from svhdesc.core.source.packages import parse_package_option
-
-    package_dirs = dict(parse_package_option(p) for p in options.packages)
-    xacro_args = dict(_xacro_arg(a) for a in options.xacro_args)
-    reports = [
-        validate_file(path, selected, package_dirs, walked, xacro_args) for path, walked in robot_files(paths)
-    ]  # all read before any write
+    command_line = CommandLine(
+        frozenset(_check_names(options.select, known)),
+        frozenset(_check_names(options.ignore, known)),
+        dict(parse_package_option(p) for p in options.packages),
+        dict(_xacro_arg(a) for a in options.xacro_args),
+    )
+    settings = load_settings()
+    runs = model_runs(paths or settings.model_files(), settings, command_line, known)
+    reports = [run.run() for run in runs]  # all read before any write
     if options.write_baseline is not None:
         _write_atomically(options.write_baseline, baseline_text(reports))
         click.echo(

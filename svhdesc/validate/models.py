@@ -1,0 +1,87 @@
+"""The models one `svhdesc validate PATH` run (or one pytest session) validates: each file, once per combination of its
+xacro arguments, with the packages, checks and ignores that the command line and [tool.svhdesc] give it."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lxml import etree
+
+from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, validate_file
+from svhdesc.validate.findings import CheckResult, FileReport
+from svhdesc.validate.settings import RepoSettings, arg_combinations, label
+from svhdesc.validate.static_urdf import RULES
+
+
+@dataclass(frozen=True)
+class CommandLine:
+    """What the command line says; it wins over the settings file."""
+
+    select: frozenset[str] = frozenset()
+    ignore: frozenset[str] = frozenset()
+    packages: Mapping[str, Path] = field(default_factory=dict)
+    args: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ModelRun:
+    path: Path
+    walked: bool
+    label: str
+    args: Mapping[str, str]
+    packages: Mapping[str, Path]
+    selected: frozenset[str]
+    ignored: Mapping[str, str]  # check -> the reason the settings give
+
+    def checks(self) -> list[str]:
+        """The checks this run reports, in order, known before it runs (the pytest plugin's items)."""
+        return [c for c in ("xml", *_kind_checks(self.path)) if c in self.selected]
+
+    def run(self) -> FileReport:
+        report = validate_file(
+            self.path, set(self.selected) - set(self.ignored), dict(self.packages), self.walked, dict(self.args)
+        )
+        report.path = self.label
+        for check, reason in self.ignored.items():
+            if check in self.selected:
+                report.checks.append(CheckResult(check, "skipped", reason=f"ignored in [tool.svhdesc]: {reason}"))
+        order = {name: i for i, name in enumerate(self.checks())}
+        report.checks.sort(key=lambda c: order.get(c.name, len(order)))
+        return report
+
+
+def _kind_checks(path: Path) -> tuple[str, ...]:
+    if is_xacro(path) or path.suffix == ".urdf":
+        return tuple(RULES)
+    try:
+        for _, element in etree.iterparse(str(path), events=("start",), resolve_entities=False, no_network=True):
+            return tuple(RULES) if element.tag == "robot" else STATIC_MJCF_CHECKS
+    except (etree.XMLSyntaxError, OSError):
+        pass
+    return ()
+
+
+def model_runs(
+    paths: list[Path], settings: RepoSettings, command_line: CommandLine, known: tuple[str, ...]
+) -> list[ModelRun]:
+    """Every model to validate: each robot file of ``paths`` (folders walked) per combination of xacro arguments."""
+    runs = []
+    for path, walked in robot_files(paths):
+        own = settings.for_model(path)
+        choices = {**own.args, **{name: (value,) for name, value in command_line.args.items()}}
+        selected = set(command_line.select or own.select or known) - command_line.ignore
+        for args in arg_combinations(choices) if is_xacro(path) else [{}]:
+            runs.append(
+                ModelRun(
+                    path,
+                    walked,
+                    label(str(path), args, choices),
+                    args,
+                    {**own.packages, **command_line.packages},
+                    frozenset(selected),
+                    {c: r for c, r in own.ignore.items() if c not in command_line.select},
+                )
+            )
+    return runs

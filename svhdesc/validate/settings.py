@@ -1,0 +1,224 @@
+"""A repository's own settings for `svhdesc validate PATH` and the pytest plugin: `[tool.svhdesc]` in pyproject.toml.
+
+    [tool.svhdesc]
+    models = ["urdf/*.urdf.xacro", "mjcf/scene*.xml"]    # what `svhdesc validate` alone and `pytest` validate
+    packages = { my_robot_description = "." }            # package://NAME and $(find NAME), relative to this file
+    ignore = { meshes = "the meshes are in a submodule CI does not fetch" }   # check = reason
+
+    [tool.svhdesc.model."urdf/arm.urdf.xacro"]            # one model (a glob), its own settings on top
+    args = { side = ["left", "right"], gripper = "true" }  # a list: one model per choice, as pal's urdf_test
+    ignore = { inertials = "the base is welded to the world" }
+
+Read where it is used, with every fault one error naming pyproject.toml and the line of the key.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import itertools
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from svhdesc.errors import SvhdescError
+
+_TOP_KEYS = {"models", "packages", "select", "ignore", "model"}
+_MODEL_KEYS = {"args", "packages", "select", "ignore"}
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    """What applies to one model: xacro argument choices, packages, checks selected, checks ignored with why."""
+
+    args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    packages: Mapping[str, Path] = field(default_factory=dict)
+    select: tuple[str, ...] = ()
+    ignore: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RepoSettings:
+    file: Path | None  # the pyproject.toml read, None without one
+    models: tuple[str, ...] = ()
+    common: ModelSettings = ModelSettings()
+    per_model: tuple[tuple[str, ModelSettings], ...] = ()
+
+    @property
+    def root(self) -> Path:
+        return self.file.parent if self.file else Path.cwd()
+
+    def for_model(self, path: Path) -> ModelSettings:
+        """The common settings with those of every [tool.svhdesc.model."GLOB"] matching ``path`` on top."""
+        relative = _relative_to(path, self.root)
+        merged = self.common
+        for pattern, settings in self.per_model:
+            if relative is not None and fnmatch.fnmatch(relative, pattern):
+                merged = ModelSettings(
+                    {**merged.args, **settings.args},
+                    {**merged.packages, **settings.packages},
+                    settings.select or merged.select,
+                    {**merged.ignore, **settings.ignore},
+                )
+        return merged
+
+    def model_files(self) -> list[Path]:
+        """The files ``models`` names, in order, each once; a pattern matching nothing is an error."""
+        found: list[Path] = []
+        for pattern in self.models:
+            matched = sorted(p for p in self.root.glob(pattern) if p.is_file())
+            if not matched:
+                raise SvhdescError(f"{self._where('models')}: '{pattern}' matches no file under {self.root}")
+            found.extend(p for p in matched if p not in found)
+        return found
+
+    def _where(self, key: str) -> str:
+        return _where(self.file, key) if self.file else "[tool.svhdesc]"
+
+
+def _relative_to(path: Path, root: Path) -> str | None:
+    try:
+        return path.resolve().relative_to(root.resolve()).as_posix()
+    except ValueError:
+        return None
+
+
+def _where(file: Path, key: str, section: str = "tool.svhdesc") -> str:
+    """``file:line`` of the first line assigning ``key`` in ``section`` (a table's name, or a model's glob), else of
+    the section's header (tomllib keeps no lines of what it read)."""
+    try:
+        lines = file.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return str(file)
+    header = next((n for n, line in enumerate(lines) if section in line and line.lstrip().startswith("[")), 0)
+    assigns = re.compile(rf'\s*"?{re.escape(key)}"?\s*=|.*[{{,]\s*"?{re.escape(key)}"?\s*=')
+    found = next((n for n in range(header, len(lines)) if assigns.match(lines[n])), header)
+    return f"{file}:{found + 1}"
+
+
+def find_pyproject(start: Path) -> Path | None:
+    """The nearest pyproject.toml at or above ``start`` (as ruff and pytest find theirs)."""
+    start = start.resolve()
+    for folder in [start, *start.parents]:
+        if (folder / "pyproject.toml").is_file():
+            return folder / "pyproject.toml"
+    return None
+
+
+def load_settings(start: Path | None = None) -> RepoSettings:
+    """The [tool.svhdesc] table of the nearest pyproject.toml, checked; empty settings without one."""
+    file = find_pyproject(start or Path.cwd())
+    if file is None:
+        return RepoSettings(None)
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib  # type: ignore[no-redef]
+    try:
+        document = tomllib.loads(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SvhdescError(f"{file}: cannot be read ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        line = re.search(r"line (\d+)", str(exc))
+        raise SvhdescError(f"{file}{':' + line.group(1) if line else ''}: not valid TOML ({exc})") from None
+    table = document.get("tool", {}).get("svhdesc")
+    if table is None:
+        return RepoSettings(file)
+    return _settings(file, table)
+
+
+def _settings(file: Path, table: Any) -> RepoSettings:
+    top = "tool.svhdesc"
+    _keys(file, table, _TOP_KEYS, top)
+    models = _strings(file, "models", table.get("models", []), top)
+    per_model = table.get("model", {})
+    if not isinstance(per_model, dict):
+        raise SvhdescError(f"{_where(file, 'model')}: [tool.svhdesc.model] must be a table of GLOB = {{...}}")
+    return RepoSettings(
+        file,
+        tuple(models),
+        _model_settings(file, table, top),
+        tuple(
+            (glob, _model_settings(file, _keys(file, value, _MODEL_KEYS, _section(glob)), _section(glob)))
+            for glob, value in per_model.items()
+        ),
+    )
+
+
+def _section(glob: str) -> str:
+    return f'tool.svhdesc.model."{glob}"'
+
+
+def _keys(file: Path, table: Any, allowed: set[str], section: str) -> dict[str, Any]:
+    if not isinstance(table, dict):
+        raise SvhdescError(f"{_where(file, '', section)}: [{section}] must be a table")
+    for unknown in sorted(set(table) - allowed):
+        known = ", ".join(sorted(allowed))
+        raise SvhdescError(f"{_where(file, unknown, section)}: unknown key '{unknown}' in [{section}] (known: {known})")
+    return table
+
+
+def _strings(file: Path, key: str, value: Any, section: str) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise SvhdescError(f"{_where(file, key, section)}: '{key}' in [{section}] must be a list of non-empty strings")
+    return value
+
+
+def _model_settings(file: Path, table: dict[str, Any], section: str) -> ModelSettings:
+    from svhdesc.validate.files import known_checks
+
+    known = known_checks()
+    select = _strings(file, "select", table.get("select", []), section)
+    ignore = table.get("ignore", {})
+    if not isinstance(ignore, dict) or not all(isinstance(v, str) and v.strip() for v in ignore.values()):
+        where = _where(file, "ignore", section)
+        raise SvhdescError(f"{where}: 'ignore' in [{section}] must be a table of CHECK = \"reason\"")
+    for check, key in [*((c, "select") for c in select), *((c, c) for c in ignore)]:
+        if check not in known:
+            where, listed = _where(file, key, section), ", ".join(known)
+            raise SvhdescError(f"{where}: unknown check '{check}' (checks on robot files: {listed})")
+    return ModelSettings(
+        _args(file, table.get("args", {}), section),
+        _packages(file, table.get("packages", {}), section),
+        tuple(select),
+        ignore,
+    )
+
+
+def _args(file: Path, value: Any, section: str) -> dict[str, tuple[str, ...]]:
+    if not isinstance(value, dict):
+        where = _where(file, "args", section)
+        raise SvhdescError(f"{where}: 'args' in [{section}] must be a table of NAME = VALUE or [VALUES]")
+    args = {}
+    for arg, given in value.items():
+        choices = given if isinstance(given, list) else [given]
+        if not choices or not all(isinstance(c, str | bool | int | float) for c in choices):
+            where = _where(file, arg, section)
+            raise SvhdescError(f"{where}: xacro argument '{arg}' must be a value or a list of values")
+        args[arg] = tuple(str(c).lower() if isinstance(c, bool) else str(c) for c in choices)
+    return args
+
+
+def _packages(file: Path, value: Any, section: str) -> dict[str, Path]:
+    if not isinstance(value, dict) or not all(isinstance(v, str) for v in value.values()):
+        raise SvhdescError(f"{_where(file, 'packages', section)}: 'packages' must be a table of NAME = \"folder\"")
+    packages = {}
+    for name, folder in value.items():
+        path = (file.parent / folder).resolve()
+        if not path.is_dir():
+            raise SvhdescError(f"{_where(file, name, section)}: package '{name}': folder {folder} does not exist")
+        packages[name] = path
+    return packages
+
+
+def arg_combinations(args: Mapping[str, tuple[str, ...]]) -> list[dict[str, str]]:
+    """One dict per combination of the arguments' choices ([{}] without arguments)."""
+    names = sorted(args)
+    return [dict(zip(names, values)) for values in itertools.product(*(args[n] for n in names))]
+
+
+def label(path: str, args: Mapping[str, str], all_args: Mapping[str, tuple[str, ...]]) -> str:
+    """``arm.urdf.xacro[side=left]``: the arguments that vary between a model's combinations."""
+    varying = [f"{n}={args[n]}" for n in sorted(args) if len(all_args.get(n, ())) > 1]
+    return f"{path}[{','.join(varying)}]" if varying else path
