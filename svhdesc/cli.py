@@ -473,16 +473,8 @@ def validate_command(
     seed: int,
     vendor_meshes: Path | None,
     allow_missing_tools: bool,
-    tier: str | None,
-    output_format: str,
-    select: tuple[str, ...],
-    ignore: tuple[str, ...],
-    baseline: Path | None,
-    write_baseline: Path | None,
-    junit_path: Path | None,
-    packages: tuple[str, ...],
-    xacro_args: tuple[str, ...],
     config_path: Path | None,
+    **on_files: Any,  # FileOptions' fields: the options for robot files (PATH)
 ) -> None:
     """Validate robot files as they stand (PATH: a URDF, an MJCF, a folder), built VARIANTS (all under OUT by
     default) or one --urdf/--mjcf pair.
@@ -497,10 +489,7 @@ def validate_command(
     config/svhdesc.yaml or the config named in the variant's manifest.json.
     """
     require_extra("validate", "'svhdesc validate'")
-    file_options = FileOptions(
-        tier, output_format, select, ignore, baseline, write_baseline, junit_path, packages, xacro_args
-    )
-    if _validated_as_files(variants, out, urdf_path, file_options):
+    if _validated_as_files(variants, out, urdf_path, FileOptions(**on_files)):
         return
     from svhdesc.validate import Options, built_variants, select_checks, validate_files
     from svhdesc.validate.report import all_passed, render_report, write_json

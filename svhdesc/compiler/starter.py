@@ -32,7 +32,7 @@ from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
 from svhdesc.core.settings.schema import JointDynamics, Simulation
 from svhdesc.core.source.meshes import MeshError, load_mesh
-from svhdesc.core.source.packages import package_name_of
+from svhdesc.core.source.packages import find_beside
 from svhdesc.core.source.quirks import apply_joint_quirks, clashing_names
 from svhdesc.core.source.urdf import read_mimics, read_urdf
 from svhdesc.core.source.xacro import expand_xacro
@@ -67,17 +67,6 @@ def _mesh_packages(tree: etree._Element) -> list[str]:
     # package:///NAME/... (Talos' full model writes an empty authority) names NAME, as resolve_uri reads it
     found = {u[len("package://") :].lstrip("/").partition("/")[0] for u in uris if u.startswith("package://")}
     return sorted(found)
-
-
-def find_beside(name: str, source: Path) -> Path | None:
-    """Where ROS would find package ``name`` for a source file: the folder above the source that is that
-    package (its package.xml names it) or that holds a folder of that name."""
-    for folder in source.resolve().parents:
-        if package_name_of(folder) == name:
-            return folder
-        if (folder / name).is_dir():
-            return folder / name
-    return None
 
 
 def _packages(tree: etree._Element, source: Path, given: dict[str, Path]) -> dict[str, Path]:

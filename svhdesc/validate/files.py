@@ -110,7 +110,7 @@ class _Packages(dict):  # type: ignore[type-arg]
         self.model = model
 
     def __missing__(self, name: str) -> Path:
-        from svhdesc.compiler.starter import find_beside
+        from svhdesc.core.source.packages import find_beside
 
         found = find_beside(name, self.model)
         if found is None:

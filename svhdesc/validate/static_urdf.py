@@ -367,7 +367,7 @@ def check_mimic(source: UrdfSource) -> list[Finding]:
 def resolve_mesh(uri: str, source: UrdfSource) -> Path | None:
     """A mesh's filename as ROS resolves it: package:// through the given packages, ROS_PACKAGE_PATH and the folders
     above the file; file:// and plain paths from the URDF's folder. None: a package no one provides."""
-    from svhdesc.compiler.starter import find_beside
+    from svhdesc.core.source.packages import find_beside
 
     if uri.startswith("package://"):
         package, _, rest = uri[len("package://") :].lstrip("/").partition("/")

@@ -91,3 +91,14 @@ def local_mesh_path(uri: str, base: Path, env: Mapping[str, str] | None = None) 
         return None
     path = Path(uri)
     return path if path.is_absolute() else base / path
+
+
+def find_beside(name: str, source: Path) -> Path | None:
+    """Where ROS would find package ``name`` for a source file: the folder above the source that is that
+    package (its package.xml names it) or that holds a folder of that name."""
+    for folder in source.resolve().parents:
+        if package_name_of(folder) == name:
+            return folder
+        if (folder / name).is_dir():
+            return folder / name
+    return None

@@ -59,18 +59,7 @@ def expand_xacro(
             cycle = _macro_cycle([path, *(Path(f) for f in xacro.all_includes)])
             if cycle:
                 raise SvhdescError(cycle) from None
-        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        # xacro names the failing expression on a later line ("when evaluating expression '1/0'"): find that.
-        expression = re.search(r"when evaluating expression '(.+)'", str(exc))
-        quoted = expression or re.search(r"'([^']+)'", message)
-        token = quoted.group(1) if quoted else None
-        undefined = re.match(r"Undefined substitution argument (\S+)", message)
-        if undefined:  # an argument not given: the line that first reads it
-            token = f"$(arg {undefined.group(1)})"
-        missing = re.match(r"No such file or directory: (\S+)", message)
-        if missing:  # an include of a missing file: its name as the including file writes it ends the same
-            token = Path(missing.group(1)).name
-            message = f"included file {missing.group(1)} does not exist"
+        message, token = _culprit(exc)
         # A macro's body fails where it is called: look for the culprit in the included files too.
         files = [where, *(Path(f) for f in xacro.all_includes if Path(f) != where)]
         located = next((found for f in files if (found := _locate(f, token)) != str(f)), str(where))
@@ -79,6 +68,23 @@ def expand_xacro(
         subst._eval_find, subst._eval_dict["find"] = saved
     inputs = [path.resolve(), *(Path(f).resolve() for f in xacro.all_includes)]
     return _parse(doc, path), list(dict.fromkeys(inputs))
+
+
+def _culprit(exc: Exception) -> tuple[str, str | None]:
+    """xacro's message (its first line) and the text whose first line in the sources is the culprit's."""
+    message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    # xacro names the failing expression on a later line ("when evaluating expression '1/0'"): find that.
+    expression = re.search(r"when evaluating expression '(.+)'", str(exc))
+    quoted = expression or re.search(r"'([^']+)'", message)
+    token = quoted.group(1) if quoted else None
+    undefined = re.match(r"Undefined substitution argument (\S+)", message)
+    if undefined:  # an argument not given: the line that first reads it
+        token = f"$(arg {undefined.group(1)})"
+    missing = re.match(r"No such file or directory: (\S+)", message)
+    if missing:  # an include of a missing file: its name as the including file writes it ends the same
+        token = Path(missing.group(1)).name
+        message = f"included file {missing.group(1)} does not exist"
+    return message, token
 
 
 def _parse(doc: xml.dom.minidom.Document, path: Path) -> etree._Element:
