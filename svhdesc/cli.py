@@ -416,7 +416,8 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     "--tier",
     type=click.Choice(["static", "full"]),
     default=None,
-    help="On robot files (PATH): static, the file's own numbers without simulating (the only tier on files so far).",
+    help="On robot files (PATH): static, the file's own numbers without simulating (a pre-commit hook's), or full "
+    "(the default): static, then compiled by MuJoCo and simulated.",
 )
 @click.option(
     "--format",
@@ -616,17 +617,13 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
     from svhdesc.validate.models import CommandLine, model_runs
     from svhdesc.validate.settings import load_settings
 
-    if options.tier == "full":
-        raise SvhdescError(
-            "--tier full on robot files is not available yet: use --tier static, or svhdesc init -> build -> "
-            "validate VARIANT for the simulated checks"
-        )
     known = known_checks()
     command_line = CommandLine(
         frozenset(_check_names(options.select, known)),
         frozenset(_check_names(options.ignore, known)),
         dict(parse_package_option(p) for p in options.packages),
         dict(_xacro_arg(a) for a in options.xacro_args),
+        options.tier,
     )
     settings = load_settings()
     runs = model_runs(paths or settings.model_files(), settings, command_line, known)

@@ -16,6 +16,7 @@ from lxml import etree
 from svhdesc.core.source.packages import package_map
 from svhdesc.errors import SvhdescError
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
+from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
 from svhdesc.validate.static_urdf import RULES, UrdfSource
 
 STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
@@ -24,7 +25,7 @@ _SKIP_DIRS = {".git", ".hg", ".svn", "node_modules", "__pycache__", ".venv", "bu
 
 
 def known_checks() -> tuple[str, ...]:
-    return ("xml", *RULES, *STATIC_MJCF_CHECKS)
+    return ("xml", *RULES, *STATIC_MJCF_CHECKS, "mujoco_compile", *FULL_CHECKS)
 
 
 def _parser() -> etree.XMLParser:
@@ -136,6 +137,7 @@ def validate_file(
     packages: dict[str, Path],
     walked: bool = False,
     xacro_args: dict[str, str] | None = None,
+    tier: str = "static",
 ) -> FileReport:
     """One file's report. A file given by name that cannot be parsed (or a xacro that does not expand) is an
     SvhdescError; one found in a folder's walk is a report whose xml check fails, so that one broken file does not
@@ -157,10 +159,12 @@ def validate_file(
         for name, rule in RULES.items():
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
+        if tier == "full" and selected & {"mujoco_compile", *FULL_CHECKS}:
+            report.checks.extend(_full_urdf(source))
     elif root.tag == "mujoco":
         report = FileReport(str(path), "mjcf")
         report.checks.append(CheckResult("xml", "pass"))
-        report.checks.extend(_mjcf_checks(path, selected))
+        report.checks.extend(_mjcf_checks(path, selected, tier))
     else:
         raise SvhdescError(f"{path}:{root.sourceline}: not a robot file (root <{root.tag}>, not <robot> or <mujoco>)")
     report.checks = [c for c in report.checks if c.name in selected]
@@ -193,7 +197,33 @@ def _locate(files: list[tuple[Path, etree._Element]], tag: str, name: str) -> tu
     return str(files[0][0]) if files else "", None
 
 
-def _mjcf_checks(path: Path, selected: set[str]) -> list[CheckResult]:
+def _full_urdf(source: UrdfSource) -> list[CheckResult]:
+    from svhdesc.validate.compile_file import CompileFailed, compile_urdf
+
+    try:
+        compiled = compile_urdf(source)
+    except CompileFailed as exc:
+        where = exc.file or str(source.path)
+        finding = Finding("mujoco_compile", where, exc.line, f"MuJoCo's URDF importer refuses it: {exc}")
+        skipped = [CheckResult(n, "skipped", reason="MuJoCo does not open the model") for n in FULL_CHECKS]
+        return [CheckResult("mujoco_compile", "fail", [finding]), *skipped]
+    compiled_check = CheckResult("mujoco_compile", "pass", figure="; ".join(compiled.notes))
+    return [compiled_check, *run_full_checks(compiled)]
+
+
+def _mjcf_where(path: Path, files: list[tuple[Path, etree._Element]]):  # type: ignore[no-untyped-def]
+    def where(tag: str, name: str) -> tuple[str, int | None]:
+        if tag == "equality":
+            for file, root in files:
+                for element in root.iterfind("equality/*"):
+                    if name in (element.get("name"), element.get("joint1")):
+                        return str(file), element.sourceline
+        return _locate(files, tag, name) if tag != "model" else (str(path), None)
+
+    return where
+
+
+def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[CheckResult]:
     import mujoco
 
     files = _mjcf_files(path)
@@ -205,9 +235,17 @@ def _mjcf_checks(path: Path, selected: set[str]) -> list[CheckResult]:
         file_match = re.search(r"[Ff]ile '?([^',\s]+\.xml)", str(exc))
         where = file_match.group(1) if file_match else str(path)
         finding = Finding("mjcf_compile", where, int(line_match.group(1)) if line_match else None, " ".join(message))
-        rest = [CheckResult(n, "skipped", reason="the model does not compile") for n in STATIC_MJCF_CHECKS[1:]]
+        rest = [
+            CheckResult(n, "skipped", reason="the model does not compile")
+            for n in (*STATIC_MJCF_CHECKS[1:], *(FULL_CHECKS if tier == "full" else ()))
+        ]
         return [CheckResult("mjcf_compile", "fail", [finding]), *rest]
-    return [CheckResult("mjcf_compile", "pass"), _actuator_ranges(model, files), _keyframes(model, files)]
+    checks = [CheckResult("mjcf_compile", "pass"), _actuator_ranges(model, files), _keyframes(model, files)]
+    if tier == "full" and selected & set(FULL_CHECKS):
+        from svhdesc.validate.compile_file import mjcf_compiled
+
+        checks += run_full_checks(mjcf_compiled(model, _mjcf_where(path, files)))
+    return checks
 
 
 def _actuator_ranges(model, files) -> CheckResult:  # type: ignore[no-untyped-def]

@@ -43,6 +43,7 @@ class CheckResult:
     status: str  # pass, fail, skipped
     findings: list[Finding] = field(default_factory=list)
     reason: str = ""
+    figure: str = ""  # what was measured against the bound, where a check measures
 
 
 @dataclass
@@ -158,4 +159,6 @@ def junit(reports: list[FileReport]) -> str:
                 )
             elif check.status == "skipped":
                 etree.SubElement(case, "skipped", message=check.reason)
+            if check.figure:
+                etree.SubElement(case, "system-out").text = check.figure
     return etree.tostring(suites, pretty_print=True, xml_declaration=True, encoding="UTF-8").decode()

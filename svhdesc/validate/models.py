@@ -11,6 +11,7 @@ from lxml import etree
 
 from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, validate_file
 from svhdesc.validate.findings import CheckResult, FileReport
+from svhdesc.validate.full_checks import FULL_CHECKS
 from svhdesc.validate.settings import RepoSettings, arg_combinations, label
 from svhdesc.validate.static_urdf import RULES
 
@@ -23,6 +24,7 @@ class CommandLine:
     ignore: frozenset[str] = frozenset()
     packages: Mapping[str, Path] = field(default_factory=dict)
     args: Mapping[str, str] = field(default_factory=dict)
+    tier: str | None = None
 
 
 @dataclass(frozen=True)
@@ -34,15 +36,15 @@ class ModelRun:
     packages: Mapping[str, Path]
     selected: frozenset[str]
     ignored: Mapping[str, str]  # check -> the reason the settings give
+    tier: str = "full"
 
     def checks(self) -> list[str]:
         """The checks this run reports, in order, known before it runs (the pytest plugin's items)."""
-        return [c for c in ("xml", *_kind_checks(self.path)) if c in self.selected]
+        return [c for c in ("xml", *_kind_checks(self.path, self.tier)) if c in self.selected]
 
     def run(self) -> FileReport:
-        report = validate_file(
-            self.path, set(self.selected) - set(self.ignored), dict(self.packages), self.walked, dict(self.args)
-        )
+        selected = set(self.selected) - set(self.ignored)
+        report = validate_file(self.path, selected, dict(self.packages), self.walked, dict(self.args), self.tier)
         report.path = self.label
         for check, reason in self.ignored.items():
             if check in self.selected:
@@ -52,12 +54,14 @@ class ModelRun:
         return report
 
 
-def _kind_checks(path: Path) -> tuple[str, ...]:
+def _kind_checks(path: Path, tier: str) -> tuple[str, ...]:
+    urdf = (*RULES, *(("mujoco_compile", *FULL_CHECKS) if tier == "full" else ()))
+    mjcf = (*STATIC_MJCF_CHECKS, *(FULL_CHECKS if tier == "full" else ()))
     if is_xacro(path) or path.suffix == ".urdf":
-        return tuple(RULES)
+        return urdf
     try:
         for _, element in etree.iterparse(str(path), events=("start",), resolve_entities=False, no_network=True):
-            return tuple(RULES) if element.tag == "robot" else STATIC_MJCF_CHECKS
+            return urdf if element.tag == "robot" else mjcf
     except (etree.XMLSyntaxError, OSError):
         pass
     return ()
@@ -82,6 +86,7 @@ def model_runs(
                     {**own.packages, **command_line.packages},
                     frozenset(selected),
                     {c: r for c, r in own.ignore.items() if c not in command_line.select},
+                    command_line.tier or settings.tier or "full",
                 )
             )
     return runs

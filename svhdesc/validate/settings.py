@@ -4,6 +4,7 @@
     models = ["urdf/*.urdf.xacro", "mjcf/scene*.xml"]    # what `svhdesc validate` alone and `pytest` validate
     packages = { my_robot_description = "." }            # package://NAME and $(find NAME), relative to this file
     ignore = { meshes = "the meshes are in a submodule CI does not fetch" }   # check = reason
+    tier = "full"                                        # or "static" (the command line's --tier wins)
 
     [tool.svhdesc.model."urdf/arm.urdf.xacro"]            # one model (a glob), its own settings on top
     args = { side = ["left", "right"], gripper = "true" }  # a list: one model per choice, as pal's urdf_test
@@ -24,7 +25,8 @@ from typing import Any
 
 from svhdesc.errors import SvhdescError
 
-_TOP_KEYS = {"models", "packages", "select", "ignore", "model"}
+_TOP_KEYS = {"models", "packages", "select", "ignore", "model", "tier"}
+TIERS = ("static", "full")
 _MODEL_KEYS = {"args", "packages", "select", "ignore"}
 
 
@@ -44,6 +46,7 @@ class RepoSettings:
     models: tuple[str, ...] = ()
     common: ModelSettings = ModelSettings()
     per_model: tuple[tuple[str, ModelSettings], ...] = ()
+    tier: str | None = None  # static or full; the command line's --tier wins
 
     @property
     def root(self) -> Path:
@@ -132,6 +135,9 @@ def _settings(file: Path, table: Any) -> RepoSettings:
     top = "tool.svhdesc"
     _keys(file, table, _TOP_KEYS, top)
     models = _strings(file, "models", table.get("models", []), top)
+    tier = table.get("tier")
+    if tier is not None and tier not in TIERS:
+        raise SvhdescError(f"{_where(file, 'tier')}: 'tier' must be one of {', '.join(TIERS)}, not {tier!r}")
     per_model = table.get("model", {})
     if not isinstance(per_model, dict):
         raise SvhdescError(f"{_where(file, 'model')}: [tool.svhdesc.model] must be a table of GLOB = {{...}}")
@@ -143,6 +149,7 @@ def _settings(file: Path, table: Any) -> RepoSettings:
             (glob, _model_settings(file, _keys(file, value, _MODEL_KEYS, _section(glob)), _section(glob)))
             for glob, value in per_model.items()
         ),
+        tier,
     )
 
 

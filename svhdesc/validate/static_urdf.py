@@ -119,6 +119,30 @@ def check_structure(source: UrdfSource) -> list[Finding]:
         else:
             parent_of[child] = parent
     found.extend(_cycles_and_roots(source, names, parent_of))
+    found.extend(_repeated(source))
+    return found
+
+
+# Elements a URDF allows once in their parent (urdfdom reads the first and MuJoCo refuses the file).
+_ONCE = {
+    "joint": ("parent", "child", "origin", "axis", "limit", "mimic", "dynamics", "calibration", "safety_controller"),
+    "link": ("inertial",),
+    "inertial": ("origin", "mass", "inertia"),
+}
+
+
+def _repeated(source: UrdfSource) -> list[Finding]:
+    found = []
+    for owner in source.root.iter(*_ONCE):
+        parent = owner.getparent()
+        if (parent is not source.root) if owner.tag != "inertial" else (parent is None or parent.tag != "link"):
+            continue  # a <transmission>'s or <gazebo> block's own vocabulary
+        for tag in _ONCE[owner.tag]:
+            repeats = owner.findall(tag)
+            for extra in repeats[1:]:
+                what = f"{owner.tag} '{owner.get('name')}'" if owner.get("name") else f"<{owner.tag}>"
+                message = f"{what}: a second <{tag}> (first at line {repeats[0].sourceline}); one is allowed"
+                found.append(_finding(source, "structure", extra, message))
     return found
 
 

@@ -28,8 +28,7 @@ ALL = set(known_checks())
 def _panda() -> etree._ElementTree:
     tree = etree.parse(str(PANDA))
     # A gripper as users write one: the second finger mimics the first (clean: the same range).
-    joint = tree.getroot().find("joint[@name='panda_finger_joint2']")
-    etree.SubElement(joint, "mimic", joint="panda_finger_joint1", multiplier="1", offset="0")
+    assert tree.getroot().find("joint[@name='panda_finger_joint2']/mimic").get("joint") == "panda_finger_joint1"
     return tree
 
 
@@ -84,6 +83,11 @@ def _duplicate_link(root: etree._Element) -> etree._Element:
     return copy
 
 
+def _second_axis(root: etree._Element) -> etree._Element:
+    joint = _element(root, "joint[@name='panda_joint3']")
+    return etree.SubElement(joint, "axis", xyz="1 0 0")
+
+
 def _scale_collision(root: etree._Element) -> etree._Element:
     return _set("link[@name='panda_link4']/collision/geometry/mesh", scale="100 100 100")(root)
 
@@ -128,6 +132,7 @@ SEEDS: dict[str, tuple[str, Callable[[etree._Element], etree._Element], str]] = 
     "nan_origin": ("numbers", _set("joint[@name='panda_joint3']/origin", xyz="0 nan 0"), "not a finite number"),
     "duplicate_link": ("structure", _duplicate_link, "defined twice"),
     "missing_parent": ("structure", _set("joint[@name='panda_joint4']/parent", link="ghost"), "not defined"),
+    "repeated_axis": ("structure", _second_axis, "a second <axis>"),
 }
 
 
@@ -214,7 +219,9 @@ def test_a_folder_walk_reports_every_robot_file_and_broken_ones_as_findings(tmp_
 
 
 def _cli(*args: str) -> tuple[int, str, str]:
-    result = run_cli("validate", *args, in_process=True)
+    """`svhdesc validate ARGS`, the static tier unless ARGS name one (tests/validate/test_full_tier.py: the full)."""
+    tier = () if "--tier" in args else ("--tier", "static")
+    result = run_cli("validate", *args, *tier, in_process=True)
     return result.returncode, result.stdout, result.stderr
 
 
@@ -282,7 +289,7 @@ def test_bad_input_is_one_error_line(tmp_path: Path) -> None:
         (str(tmp_path / "robot.urdf.xacro"), "--arg", "side"): "expected NAME:=VALUE",
         (str(tmp_path / "includes.urdf.xacro"),): "includes.urdf.xacro:4: xacro: included file",
         (str(tmp_path / "ok.urdf"), "--select", "nope"): "unknown check 'nope'",
-        (str(tmp_path / "ok.urdf"), "--tier", "full"): "--tier full on robot files is not available yet",
+        (str(tmp_path / "ok.urdf"), "--tier", "fast"): "'fast' is not one of 'static', 'full'",
     }
     before = sorted(tmp_path.rglob("*"))
     for args, words in cases.items():

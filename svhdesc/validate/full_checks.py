@@ -1,0 +1,273 @@
+"""The full tier's checks on a compiled robot file: it is simulated, not only read.
+
+- model_test: MuJoCo Menagerie's model test: controls drawn from a Halton sequence within each actuator's ctrlrange
+  for 0.1 s, and no MuJoCo warning (bad acceleration, contact or constraint buffer full, ...), nothing non-finite.
+- settle: 1 s from the rest pose (keyframe 0, else the zero pose within the limits) with the servos holding it:
+  the model does not diverge at its own timestep.
+- rest_contacts: in no pose the file states (its keyframes; an MJCF's qpos0 without one) do two bodies
+  interpenetrate deeper than 5 mm. A URDF states no pose: skipped, with the pairs that touch in every pose named.
+- equality_tracking: every equality constraint (a URDF <mimic>) holds within 5 % of its follower's range (at least
+  0.01 rad or m) while the leaders'
+  position servos sweep their ranges (rest, upper end, lower end, rest) in 1 s, the rest held, contacts off.
+- gravity_hold: each joint's rated force (URDF effort, an actuator's force bound) holds its share of the robot's
+  weight in at least half of 65 poses within the limits (the rest pose and 64 of a Halton sequence), by inverse
+  dynamics with the constraints off; the value that passes is the worst pose's load.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from svhdesc.validate.compile_file import Compiled, quiet_mujoco
+from svhdesc.validate.findings import CheckResult, Finding
+from svhdesc.validate.poses import contact_pairs, halton, rest_state, set_pose
+
+FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold")
+MODEL_TEST_SECONDS = 0.1  # Menagerie's
+SETTLE_SECONDS = 1.0
+SWEEP_SECONDS = 1.0
+PENETRATION_BOUND = 0.005  # m
+# A coupling is broken when its follower strays by 5 % of its range (at least 0.01 rad or m): soft constraints sag a
+# few hundredths of a radian on a light fingertip (MuJoCo's default solref on a 2 cm link: 0.16 rad; at 0.004 s:
+# 0.04 rad over a 2 rad range), while a coupling that cannot hold strays by tenths.
+EQUALITY_FRACTION = 0.05
+EQUALITY_FLOOR = 0.01
+GRAVITY_SAMPLES = 64
+
+
+class _Watch:
+    """What a run saw: MuJoCo's warnings, non-finite state, each equality's worst residual."""
+
+    def __init__(self, model) -> None:  # type: ignore[no-untyped-def]
+        self.model = model
+        self.equality = np.zeros(model.neq)
+        self.nonfinite_at: float | None = None
+
+    def step(self, data, track: bool = False) -> bool:  # type: ignore[no-untyped-def]
+        import mujoco
+
+        mujoco.mj_step(self.model, data)
+        if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+            self.nonfinite_at = float(data.time)
+            return False
+        if track:
+            rows = np.flatnonzero(data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+            if rows.size:
+                np.maximum.at(self.equality, data.efc_id[rows], np.abs(data.efc_pos[rows]))
+        return True
+
+    def problems(self, data) -> list[str]:  # type: ignore[no-untyped-def]
+        import mujoco
+
+        said = [
+            f"MuJoCo warning {mujoco.mjtWarning(i).name.removeprefix('mjWARN_')} x{w.number}"
+            for i, w in enumerate(data.warning)
+            if w.number > 0
+        ]
+        if self.nonfinite_at is not None:
+            said.append(f"the state went non-finite at t={self.nonfinite_at:.4g} s")
+            self.nonfinite_at = None
+        return said
+
+
+def _file_finding(compiled: Compiled, check: str, message: str) -> Finding:
+    file, _ = compiled.where("model", "")
+    return Finding(check, file, None, message)
+
+
+def _run_result(compiled: Compiled, check: str, data, watch: _Watch, what: str) -> CheckResult:  # type: ignore[no-untyped-def]
+    timestep = compiled.model.opt.timestep
+    findings = [_file_finding(compiled, check, f"{what}: {p} (timestep {timestep:g} s)") for p in watch.problems(data)]
+    return CheckResult(check, "fail" if findings else "pass", findings, figure=what)
+
+
+def model_test(compiled: Compiled, watch: _Watch) -> CheckResult:
+    model = compiled.model
+    data, _ = rest_state(model)
+    limited = np.flatnonzero(model.actuator_ctrllimited)
+    lo, hi = model.actuator_ctrlrange[limited, 0], model.actuator_ctrlrange[limited, 1]
+    steps = max(1, round(MODEL_TEST_SECONDS / model.opt.timestep))
+    for step in range(1, steps + 1):
+        data.ctrl[limited] = lo + (hi - lo) * halton(step, limited.size)
+        if not watch.step(data):
+            break
+    return _run_result(compiled, "model_test", data, watch, f"{steps} steps of random controls within ctrlrange")
+
+
+def settle(compiled: Compiled, watch: _Watch) -> CheckResult:
+    data, pose = rest_state(compiled.model)
+    steps = max(1, round(SETTLE_SECONDS / compiled.model.opt.timestep))
+    for _ in range(steps):
+        if not watch.step(data):
+            break
+    speed = float(np.max(np.abs(data.qvel))) if compiled.model.nv else 0.0
+    what = f"{SETTLE_SECONDS:g} s from {pose}, |qvel| {speed:.3g} at the end"
+    return _run_result(compiled, "settle", data, watch, what)
+
+
+def rest_contacts(compiled: Compiled) -> CheckResult:
+    import mujoco
+
+    model = compiled.model
+    if compiled.kind == "urdf" and not model.nkey:
+        listed = ", ".join(f"{a}/{b}" for a, b in compiled.overlapping[:6]) or "none"
+        return CheckResult(
+            "rest_contacts",
+            "skipped",
+            reason=f"a URDF states no pose; pairs of links touching in every pose, left out of contact as MoveIt's "
+            f"setup assistant disables them: {len(compiled.overlapping)} ({listed})",
+        )
+    data = mujoco.MjData(model)
+    found: dict[tuple[str, str], tuple[float, str]] = {}
+    poses = list(range(model.nkey)) or [None]
+    for key in poses:
+        if key is None:
+            data, label = rest_state(model)
+        else:
+            mujoco.mj_resetDataKeyframe(model, data, key)
+            label = f"keyframe '{model.key(key).name or key}'"
+        for pair, depth in contact_pairs(model, data).items():
+            if depth > found.get(pair, (0.0, ""))[0]:
+                found[pair] = (depth, label)
+    findings = []
+    for (a, b), (depth, label) in sorted(found.items()):
+        if depth > PENETRATION_BOUND:
+            file, line = compiled.where("body", b if b != "world" else a)
+            message = f"bodies '{a}' and '{b}' interpenetrate by {depth * 1000:.3g} mm in {label}"
+            findings.append(Finding("rest_contacts", file, line, f"{message} (bound {PENETRATION_BOUND * 1000:g} mm)"))
+    deepest = max((d for d, _ in found.values()), default=0.0)
+    figure = f"deepest {deepest * 1000:.3g} mm over {len(poses)} pose(s)"
+    return CheckResult("rest_contacts", "fail" if findings else "pass", findings, figure=figure)
+
+
+def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
+    import mujoco
+
+    model = compiled.model
+    if model.neq == 0:
+        return CheckResult("equality_tracking", "skipped", reason="no equality constraints (no <mimic>)")
+    data, _ = rest_state(model)
+    leaders = {int(model.eq_obj2id[e]) for e in range(model.neq) if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT}
+    servos = [  # the leaders' servos sweep; every other joint is held where it rests
+        i
+        for i in range(model.nu)
+        if model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE
+        and model.actuator_ctrllimited[i]
+        and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT
+        and int(model.actuator_trnid[i, 0]) in leaders
+    ]
+    lo, hi = model.actuator_ctrlrange[servos, 0], model.actuator_ctrlrange[servos, 1]
+    # From where each servo rests to its upper end, its lower end and back, smoothly: no step in the target.
+    waypoints = np.array([data.ctrl[servos], hi, lo, data.ctrl[servos]])
+    steps = max(3, round(SWEEP_SECONDS / model.opt.timestep))
+    saved = model.opt.disableflags
+    # Without contacts: fingers meeting each other is how a gripper closes, and what blocks a joint is
+    # range_of_motion's question; this one asks whether the couplings hold while everything moves.
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    try:
+        for step in range(steps):
+            segment, fraction = divmod(3 * step / steps, 1.0)
+            start, end = waypoints[int(segment)], waypoints[int(segment) + 1]
+            data.ctrl[servos] = start + (end - start) * 0.5 * (1 - math.cos(math.pi * fraction))
+            if not watch.step(data, track=True):
+                break
+    finally:
+        model.opt.disableflags = saved
+    findings = []
+    bounds = np.array([_equality_bound(model, e) for e in range(model.neq)])
+    for e in np.flatnonzero(watch.equality > bounds):
+        name = model.eq(e).name
+        joint = model.joint(model.eq_obj1id[e]).name if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT else ""
+        file, line = compiled.where("equality", name or joint) if compiled.kind == "mjcf" else (None, None)
+        if file is None:
+            file, line = compiled.where("joint", joint)
+        label = f"equality '{name}'" if name else f"joint '{joint}' (its coupling)"
+        message = f"{label} off by up to {watch.equality[e]:.3g} while the leaders sweep their ranges in"
+        findings.append(
+            Finding("equality_tracking", file, line, f"{message} {SWEEP_SECONDS:g} s (bound {bounds[e]:.3g})")
+        )
+    figure = f"worst residual {float(np.max(watch.equality)):.3g} over a {SWEEP_SECONDS:g} s sweep"
+    return CheckResult("equality_tracking", "fail" if findings else "pass", findings, figure=figure)
+
+
+def _equality_bound(model, equality: int) -> float:  # type: ignore[no-untyped-def]
+    import mujoco
+
+    joint = int(model.eq_obj1id[equality])
+    if model.eq_type[equality] != mujoco.mjtEq.mjEQ_JOINT or not model.jnt_limited[joint]:
+        return EQUALITY_FLOOR
+    lo, hi = model.jnt_range[joint]
+    return max(EQUALITY_FLOOR, EQUALITY_FRACTION * float(hi - lo))
+
+
+def gravity_hold(compiled: Compiled) -> CheckResult:
+    import mujoco
+
+    model = compiled.model
+    rated = {j: f for j, f in compiled.rated.items() if model.jnt_type[j] in (2, 3)}
+    if not rated:
+        return CheckResult("gravity_hold", "skipped", reason="no joint states a force it is rated for")
+    saved = model.opt.disableflags
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT  # the actuators alone hold the weight
+    try:
+        loads = _holding_loads(model, list(rated))
+    finally:
+        model.opt.disableflags = saved
+    findings = []
+    for joint, force in rated.items():
+        typical, worst = float(np.median(loads[joint])), float(np.max(loads[joint]))
+        if typical > force:
+            name = model.joint(joint).name
+            file, line = compiled.where("joint", name)
+            unit = "N m" if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_HINGE else "N"
+            message = (
+                f"joint '{name}' is rated {force:.4g} {unit} but needs more to hold against gravity in most poses "
+                f"(median {typical:.4g}, worst {worst:.4g} of {GRAVITY_SAMPLES + 1})"
+            )
+            findings.append(Finding("gravity_hold", file, line, message, _remedy(compiled, worst)))
+    ratio = max(float(np.median(loads[j])) / f for j, f in rated.items())
+    figure = f"median load up to {ratio:.3g} x rated"
+    return CheckResult("gravity_hold", "fail" if findings else "pass", findings, figure=figure)
+
+
+def _holding_loads(model, joints: list[int]) -> dict[int, np.ndarray]:  # type: ignore[no-untyped-def]
+    """Each joint's generalized force holding the robot still against gravity, in every sampled pose."""
+    import mujoco
+
+    data, _ = rest_state(model)
+    rest = data.qpos.copy()
+    loads = {joint: np.zeros(GRAVITY_SAMPLES + 1) for joint in joints}
+    for sample in range(GRAVITY_SAMPLES + 1):
+        data.qpos[:] = rest
+        if sample:
+            set_pose(model, data, sample)
+        data.qvel[:] = 0
+        data.qacc[:] = 0
+        mujoco.mj_inverse(model, data)
+        for joint in joints:
+            loads[joint][sample] = abs(float(data.qfrc_inverse[model.jnt_dofadr[joint]]))
+    return loads
+
+
+def _remedy(compiled: Compiled, need: float) -> str:
+    if compiled.kind == "urdf":
+        return f'effort="{_round_up(need)}"'
+    return f"a force bound (forcerange x gear) of at least {_round_up(need)}"
+
+
+def _round_up(value: float) -> str:
+    """``value`` rounded up to 3 significant digits: the figure that passes."""
+    if value <= 0:
+        return "0"
+    scale = 10 ** (math.floor(math.log10(value)) - 2)
+    return f"{math.ceil(value / scale - 1e-9) * scale:.4g}"
+
+
+def run_full_checks(compiled: Compiled) -> list[CheckResult]:
+    watch = _Watch(compiled.model)
+    with quiet_mujoco():
+        results = [model_test(compiled, watch), settle(compiled, watch), rest_contacts(compiled)]
+        results += [equality_tracking(compiled, watch), gravity_hold(compiled)]
+    return results

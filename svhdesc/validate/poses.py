@@ -1,0 +1,80 @@
+"""Poses of a compiled robot file: its rest pose and a Halton sequence over its joints' ranges, the same on any
+machine (no random generator), shared by the full tier's compile step and its checks."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97)
+
+
+def halton(index: int, dimensions: int) -> np.ndarray:
+    """Point ``index`` (from 1) of the Halton sequence in [0, 1)^dimensions; past 25 dimensions the bases repeat,
+    shifted, which keeps the points spread enough for a smoke test."""
+    point = np.empty(dimensions)
+    for d in range(dimensions):
+        base, i, f, value = _PRIMES[d % len(_PRIMES)], index + d // len(_PRIMES), 1.0, 0.0
+        while i > 0:
+            f /= base
+            value += f * (i % base)
+            i //= base
+        point[d] = value
+    return point
+
+
+def joint_ranges(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    """The 1-dof joints (hinge, slide) and their ranges; an unlimited hinge spans one turn."""
+    joints = np.flatnonzero(np.isin(model.jnt_type, (2, 3)))
+    lo = np.where(model.jnt_limited[joints], model.jnt_range[joints, 0], -math.pi)
+    hi = np.where(model.jnt_limited[joints], model.jnt_range[joints, 1], math.pi)
+    return joints, lo, hi
+
+
+def set_pose(model, data, sample: int) -> None:  # type: ignore[no-untyped-def]
+    """Halton point ``sample`` (from 1) of the joints' ranges into data.qpos; other coordinates stay."""
+    joints, lo, hi = joint_ranges(model)
+    data.qpos[model.jnt_qposadr[joints]] = lo + (hi - lo) * halton(sample, joints.size)
+
+
+def rest_state(model):  # type: ignore[no-untyped-def]
+    """Keyframe 0's qpos and ctrl, else qpos0 within the limits with every position servo aimed at its joint."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+        return data, f"keyframe '{model.key(0).name or 0}'"
+    joints, lo, hi = joint_ranges(model)
+    addresses = model.jnt_qposadr[joints]
+    data.qpos[addresses] = np.clip(data.qpos[addresses], lo, hi)
+    for i in range(model.nu):
+        is_position = model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE and model.actuator_gainprm[i, 0] > 0
+        if is_position and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT:
+            data.ctrl[i] = data.qpos[model.jnt_qposadr[model.actuator_trnid[i, 0]]]
+    return data, "the rest pose"
+
+
+def contact_pairs(model, data) -> dict[tuple[str, str], float]:  # type: ignore[no-untyped-def]
+    """Each pair of bodies in contact in data's pose and its deepest penetration (m, > 0)."""
+    import mujoco
+
+    mujoco.mj_forward(model, data)
+    pairs: dict[tuple[str, str], float] = {}
+    for contact in data.contact[: data.ncon]:
+        a, b = sorted(model.body(model.geom_bodyid[g]).name or "world" for g in contact.geom)
+        pairs[(a, b)] = max(pairs.get((a, b), 0.0), -float(contact.dist))
+    return pairs
+
+
+def always_touching(model, samples: int) -> dict[tuple[str, str], float]:  # type: ignore[no-untyped-def]
+    """The pairs of bodies in contact in the rest pose and in every one of ``samples`` Halton poses, each with its
+    least penetration: geometry that overlaps whatever the joints do."""
+    data, _ = rest_state(model)
+    always = contact_pairs(model, data)
+    for sample in range(1, samples + 1):
+        set_pose(model, data, sample)
+        seen = contact_pairs(model, data)
+        always = {pair: min(depth, seen[pair]) for pair, depth in always.items() if pair in seen}
+    return always

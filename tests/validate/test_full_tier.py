@@ -1,0 +1,170 @@
+"""`svhdesc validate PATH` (the full tier, the default): the file compiled by MuJoCo as it stands and simulated.
+
+Clean robots: pybullet_data's Panda (a URDF, read where pip put it) and an arm written here as an MJCF (a keyframe,
+position servos, a coupled fingertip, a floor). Each simulated check has a seeded fault that fails it, at the line
+of the element it names; and a file with a fault MuJoCo refuses to load unaided is still simulated, the fault a
+finding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from lxml import etree
+
+from svhdesc.validate.files import known_checks, validate_file
+from tests.support import run_cli
+from tests.validate.test_static_files import PACKAGES, _failures, _panda, _set, _write
+
+ALL = set(known_checks())
+FULL = {"mujoco_compile", "model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold"}
+
+ARM = """<mujoco model="arm">
+  <compiler angle="radian"/>
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="base" pos="0 0 0.1">
+      <geom type="cylinder" size="0.05 0.05"/>
+      <body name="upper" pos="0 0 0.1">
+        <joint name="shoulder" axis="0 1 0" range="-1.5 1.5"/>
+        <geom type="capsule" fromto="0.04 0 0 0.3 0 0" size="0.03" mass="1"/>
+        <body name="fore" pos="0.3 0 0">
+          <joint name="elbow" axis="0 1 0" range="-1.5 1.5"/>
+          <geom type="capsule" fromto="0.04 0 0 0.25 0 0" size="0.025" mass="0.5"/>
+          <body name="finger" pos="0.25 0 0">
+            <joint name="finger" axis="0 1 0" range="-1 1"/>
+            <geom type="box" size="0.03 0.01 0.01" pos="0.03 0 0" mass="0.05"/>
+            <body name="tip" pos="0.06 0 0">
+              <joint name="tip" axis="0 1 0" range="-1 1"/>
+              <geom type="box" size="0.02 0.01 0.01" pos="0.02 0 0" mass="0.02"/>
+            </body>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <joint name="tip_follows_finger" joint1="tip" joint2="finger" polycoef="0 1 0 0 0" solref="0.004 1"/>
+  </equality>
+  <actuator>
+    <position name="shoulder" joint="shoulder" kp="200" kv="20" ctrlrange="-1.5 1.5" forcerange="-30 30"/>
+    <position name="elbow" joint="elbow" kp="100" kv="10" ctrlrange="-1.5 1.5" forcerange="-15 15"/>
+    <position name="finger" joint="finger" kp="5" kv="0.2" ctrlrange="-1 1" forcerange="-2 2"/>
+  </actuator>
+  <keyframe>
+    <key name="home" qpos="0 0 0 0" ctrl="0 0 0"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def _arm(tmp_path: Path, old: str = "", new: str = "") -> Path:
+    assert old in ARM
+    path = tmp_path / "arm.xml"
+    path.write_text(ARM.replace(old, new, 1))
+    return path
+
+
+def _line(path: Path, text: str) -> int:
+    return next(n for n, line in enumerate(path.read_text().splitlines(), start=1) if text in line)
+
+
+def test_the_clean_arm_and_panda_pass_every_check(tmp_path: Path) -> None:
+    arm = validate_file(_arm(tmp_path), ALL, {}, tier="full")
+    assert _failures(arm) == {}
+    assert {c.name for c in arm.checks if c.status == "pass"} >= FULL - {"mujoco_compile"}
+    panda = validate_file(_write(_panda(), tmp_path / "panda.urdf"), ALL, PACKAGES, tier="full")
+    assert _failures(panda) == {}
+    statuses = {c.name: c.status for c in panda.checks}
+    assert statuses["rest_contacts"] == "skipped"  # a URDF states no pose
+    assert {n for n, s in statuses.items() if s == "pass"} >= FULL - {"rest_contacts"}
+
+
+# check -> (old text, new text, the text of the line the finding points at, the fault's words)
+MJCF_SEEDS: dict[str, tuple[str, str, str | None, str]] = {
+    "gravity_hold": ('forcerange="-30 30"', 'forcerange="-1 1"', '<joint name="shoulder"', "needs more to hold"),
+    "equality_tracking": (  # a coupling as soft as a 0.5 s spring: the tip hangs instead of following
+        'solref="0.004 1"',
+        'solref="0.5 1"',
+        '<joint name="tip_follows_finger"',
+        "off by up to",
+    ),
+    "settle": ('timestep="0.002"', 'timestep="0.08"', None, "timestep 0.08"),
+    "rest_contacts": ('qpos="0 0 0 0"', 'qpos="1.5 0 0 0"', '<body name="upper"', "'upper' and 'world'"),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(MJCF_SEEDS))
+def test_each_simulated_check_fails_on_its_seeded_fault(tmp_path: Path, kind: str) -> None:
+    old, new, at, words = MJCF_SEEDS[kind]
+    path = _arm(tmp_path, old, new)
+    failures = _failures(validate_file(path, ALL, {}, tier="full"))
+    assert kind in failures, failures
+    finding = next(f for f in failures[kind] if words in f.message)
+    assert finding.file == str(path) and finding.line == (_line(path, at) if at else None), finding
+
+
+def test_gravity_hold_names_the_effort_that_would_pass(tmp_path: Path) -> None:
+    tree = _panda()
+    _set("joint[@name='panda_joint2']/limit", effort="2")(tree.getroot())
+    path = _write(tree, tmp_path / "panda.urdf")
+    (finding,) = _failures(validate_file(path, ALL, PACKAGES, tier="full"))["gravity_hold"]
+    assert "joint 'panda_joint2' is rated 2 N m" in finding.message
+    assert finding.line == _line(path, '<joint name="panda_joint2"')
+    needed = float(finding.remedy.split('"')[1])
+    passing = _panda()
+    _set("joint[@name='panda_joint2']/limit", effort=str(needed))(passing.getroot())
+    again = validate_file(_write(passing, tmp_path / "fixed.urdf"), {"gravity_hold"}, PACKAGES, tier="full")
+    assert _failures(again) == {}
+
+
+def _massless(root: etree._Element) -> None:
+    _set("link[@name='panda_link3']/inertial/mass", value="0")(root)
+    _set("link[@name='panda_link3']/inertial/inertia", ixx="0", iyy="0", izz="0", ixy="0", ixz="0", iyz="0")(root)
+
+
+def _second_axis(root: etree._Element) -> None:
+    etree.SubElement(root.find("joint[@name='panda_joint3']"), "axis", xyz="1 0 0")
+
+
+# A fault MuJoCo refuses unaided: either still simulated (the fault reported by its static check) or, where MuJoCo
+# cannot open the file at all, a mujoco_compile finding at the source's line.
+REFUSED: dict[str, tuple[Callable[[etree._Element], None], str, str | None]] = {
+    "massless_link": (_massless, "inertials", None),
+    # MuJoCo names the element it read first of the two: the joint's own axis, two lines below the joint's tag
+    "repeated_axis": (_second_axis, "mujoco_compile", '<joint name="panda_joint3"'),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(REFUSED))
+def test_a_fault_is_a_finding_not_a_refusal(tmp_path: Path, kind: str) -> None:
+    seed, check, at = REFUSED[kind]
+    tree = _panda()
+    seed(tree.getroot())
+    path = _write(tree, tmp_path / "panda.urdf")
+    report = validate_file(path, ALL, PACKAGES, tier="full")
+    statuses = {c.name: c.status for c in report.checks}
+    assert check in _failures(report)
+    if at is None:  # simulated anyway, saying how
+        compiled = next(c for c in report.checks if c.name == "mujoco_compile")
+        assert compiled.status == "pass" and "masses below 1e-6 kg" in compiled.figure
+        assert statuses["settle"] == "pass" and statuses["gravity_hold"] in {"pass", "fail"}
+    else:
+        (finding,) = _failures(report)["mujoco_compile"]
+        first_axis = next(e for e in etree.parse(str(path)).iterfind("joint[@name='panda_joint3']/axis"))
+        assert finding.line == first_axis.sourceline > _line(path, at) and "repeated element" in finding.message
+        assert statuses["settle"] == "skipped"
+
+
+def test_the_cli_runs_the_full_tier_by_default(tmp_path: Path) -> None:
+    path = _arm(tmp_path, 'forcerange="-30 30"', 'forcerange="-1 1"')
+    result = run_cli("validate", str(path), "--format", "junit", in_process=True)
+    assert result.returncode == 1, result.stdout + result.stderr
+    cases = {c.get("name"): c for c in etree.fromstring(result.stdout.encode()).iter("testcase")}
+    assert cases["gravity_hold"].find("failure") is not None and cases["settle"].find("failure") is None
+    assert "median load up to" in cases["gravity_hold"].findtext("system-out")
+    static = run_cli("validate", str(path), "--tier", "static", in_process=True)
+    assert static.returncode == 0, static.stdout
