@@ -11,7 +11,9 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -59,14 +61,27 @@ def replaced(path: Path) -> Iterator[str]:
             os.unlink(temporary)
 
 
-def read_checkpoint(path: Path, task: Task) -> dict[str, Any]:
-    """The checkpoint's svhdesc infos; an SvhdescError naming the file if it is not a checkpoint of ``task``."""
+def load_checkpoint(path: Path, task: Task) -> dict[str, Any]:
+    """The checkpoint as rsl-rl saved it (the models' and the optimizer's state, ``iter``, svhdesc's ``infos``),
+    loaded with ``weights_only=True``: tensors and plain containers only, so a crafted pickle runs no code (a
+    checkpoint is a file people download and share). An SvhdescError naming the file if it is not an svhdesc
+    checkpoint of ``task`` or holds a number that is not finite."""
+    import pickle
+    import warnings
+
     import torch
 
     if not path.is_file():
         raise SvhdescError(f"{path}: no such checkpoint")
     try:
-        saved = torch.load(str(path), weights_only=False, map_location="cpu")
+        with warnings.catch_warnings():  # torch's note on the pickle protocol is not the user's business
+            warnings.simplefilter("ignore")
+            saved = torch.load(str(path), weights_only=True, map_location="cpu")
+    except pickle.UnpicklingError as exc:
+        reason = _refused(exc)
+        if "global" in reason.lower():  # an object or a call torch would have to make: code it will not run
+            raise SvhdescError(f"{path}: refused: it holds more than weights and plain data ({reason})") from None
+        raise SvhdescError(f"{path}: not a checkpoint ({reason})") from None
     except Exception as exc:  # torch raises many kinds for a file that is not a checkpoint
         raise SvhdescError(f"{path}: not a checkpoint ({type(exc).__name__}: {exc})") from None
     infos = saved.get("infos") if isinstance(saved, dict) else None
@@ -74,7 +89,61 @@ def read_checkpoint(path: Path, task: Task) -> dict[str, Any]:
         raise SvhdescError(f"{path}: not an svhdesc checkpoint (no task in it)")
     if infos["task"] != task.name:
         raise SvhdescError(f"{path}: a checkpoint of task {infos['task']!r}, not of {task.name!r}")
+    missing = [key for key in MODELS if not isinstance(saved.get(key), dict)]
+    if missing or not isinstance(saved.get("iter"), int):
+        raise SvhdescError(f"{path}: not an svhdesc checkpoint (no {(missing or ['iter'])[0]} in it)")
+    where = _non_finite({key: saved[key] for key in MODELS})
+    if where is not None:
+        raise SvhdescError(f"{path}: {where} holds a number that is not finite (a diverged run's weights)")
+    return saved
+
+
+MODELS = ("actor_state_dict", "critic_state_dict", "optimizer_state_dict")  # rsl-rl's PPO.save
+
+
+def _refused(exc: Exception) -> str:
+    """What torch's weights-only unpickler refused, without its advice to load the file unsafely."""
+    found = re.search(r"WeightsUnpickler error:\s*(.+?)(?:\. Please|\n|$)", str(exc))
+    return found.group(1).strip() if found else type(exc).__name__
+
+
+def _non_finite(value: Any, where: str = "") -> str | None:
+    """The first entry (``actor_state_dict.mlp.0.weight``) holding a NaN or an infinity, else None."""
+    import torch
+
+    if isinstance(value, torch.Tensor):
+        return where if value.is_floating_point() and not bool(torch.isfinite(value).all()) else None
+    if isinstance(value, float):
+        return None if math.isfinite(value) else where
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list | tuple) else ()
+    for key, item in items:
+        found = _non_finite(item, f"{where}.{key}" if where else str(key))
+        if found is not None:
+            return found
+    return None
+
+
+def restore(runner: Any, saved: dict[str, Any], path: Path, env: Any) -> dict[str, Any]:
+    """Load a checkpoint that ``load_checkpoint`` read into ``runner`` (its networks, optimizer and iteration:
+    rsl-rl's own ``load`` would unpickle the file again, code and all); its infos. An SvhdescError naming the file
+    if its networks do not fit ``env``'s observations and actions."""
+    infos = saved["infos"]
+    actor, critic = env.observation_sizes()
+    widths = {"actor_obs": int(actor), "critic_obs": int(critic), "actions": int(env.num_actions)}
+    for key, width in widths.items():
+        if key in infos and infos[key] != width:
+            raise SvhdescError(f"{path}: {key} {infos[key]!r} in it, the task's environment has {width}")
+    try:
+        runner.alg.load(saved, None, strict=True)
+    except (KeyError, RuntimeError, ValueError) as exc:  # state dicts of other shapes or names
+        raise SvhdescError(f"{path}: its networks do not fit task {infos['task']!r} ({_first_line(exc)})") from None
+    runner.current_learning_iteration = saved["iter"]
     return infos
+
+
+def _first_line(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:

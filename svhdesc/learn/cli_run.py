@@ -46,7 +46,7 @@ def run_train(
     seed: int,
     say: Callable[[str], None],
 ) -> Path:
-    from svhdesc.learn.checkpoint import read_checkpoint
+    from svhdesc.learn.checkpoint import load_checkpoint
     from svhdesc.learn.env import TaskEnv
     from svhdesc.learn.train import check_device, train
 
@@ -62,7 +62,7 @@ def run_train(
     if backend == "mujoco" and device != "cpu":
         raise SvhdescError(f"--backend mujoco runs on the CPU, not on {device!r}")
     if resume is not None:
-        read_checkpoint(resume, task)
+        load_checkpoint(resume, task)
     folder = _out(task, out, resume)
     rank = int(os.getenv("RANK", "0"))  # under torchrun: each rank its own worlds and draws; rank 0 speaks
     if rank != 0:
@@ -84,22 +84,18 @@ def _silent(line: str) -> None:
 
 def policy_file(task: Task, checkpoint: Path, scratch: Path) -> Path:
     """An ONNX actor for ``checkpoint``: itself if it is one, else exported from the rsl-rl checkpoint."""
-    from svhdesc.learn.checkpoint import export_onnx, onnx_info, read_checkpoint
+    from svhdesc.learn.checkpoint import export_onnx, load_checkpoint, onnx_info, restore
 
     if checkpoint.suffix == ".onnx":
         onnx_info(checkpoint, task)
         return checkpoint
-    read_checkpoint(checkpoint, task)
-    import contextlib
-    import io
-
+    saved = load_checkpoint(checkpoint, task)
     from svhdesc.learn.env import TaskEnv
     from svhdesc.learn.train import make_runner, ppo_config
 
     env = TaskEnv(task, 1, device="cpu", backend="mujoco")
     runner = make_runner(env, ppo_config(task.training), None)
-    with contextlib.redirect_stdout(io.StringIO()):
-        runner.load(str(checkpoint), map_location="cpu")
+    restore(runner, saved, checkpoint, env)
     return export_onnx(runner, scratch / "policy.onnx", task, env)
 
 

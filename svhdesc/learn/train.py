@@ -154,13 +154,11 @@ class Session:
         self.last: Path | None = None
 
     def start(self, resume: Path | None) -> None:
-        from svhdesc.learn.checkpoint import read_checkpoint
+        from svhdesc.learn.checkpoint import load_checkpoint, restore
 
         runner = self.runner
         if resume is not None:
-            read_checkpoint(resume, self.task)  # refuses another task's
-            with contextlib.redirect_stdout(io.StringIO()):
-                runner.load(str(resume), map_location=str(self.env.device))
+            restore(runner, load_checkpoint(resume, self.task), resume, self.env)  # refuses another task's
             runner.current_learning_iteration += 1
         if self.rank == 0:
             with contextlib.redirect_stdout(io.StringIO()):  # "Storing git diff ...": rsl-rl's, not a progress line

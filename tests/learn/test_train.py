@@ -4,7 +4,7 @@ checkpoint that reloads to the exported actor's actions, and ``--resume`` contin
 
 Seeded faults, each failing the test named: ``export_onnx`` exporting a fresh runner's (untrained) actor
 (test_two_iterations_on_warp); ``train`` not loading the ``--resume`` checkpoint (the iteration count restarts at 0:
-test_resume_continues); ``read_checkpoint`` not comparing the task (test_bad_inputs_are_one_line, play and resume
+test_resume_continues); ``load_checkpoint`` not comparing the task (test_bad_inputs_are_one_line, play and resume
 of another task's checkpoint); ``_out`` accepting a non-empty folder (the same test).
 """
 
@@ -80,7 +80,7 @@ def test_resume_continues(cpu_run: Path, tmp_path: Path) -> None:
     env = TaskEnv(reach, 4, device="cpu", backend="mujoco", seed=2)
     last = train(reach, env, tmp_path, minutes=None, iterations=1, resume=cpu_run, say=lambda line: None)
     assert last.name == "model_2.pt"
-    saved = torch.load(str(last), weights_only=False)
+    saved = torch.load(str(last), weights_only=True)
     assert saved["iter"] == 2 and saved["infos"]["task"] == "svh_reach"
 
 
