@@ -454,6 +454,14 @@ def info_command(variant: str, config_path: Path | None, packages: tuple[str, ..
     help="On robot files: where package://NAME/ resolves (else ROS_PACKAGE_PATH, then the folders above the file).",
 )
 @click.option(
+    "-j",
+    "--jobs",
+    type=click.IntRange(1, 256),
+    default=1,
+    show_default=True,
+    help="On robot files: validate this many models at once, each in a process of its own.",
+)
+@click.option(
     "--arg",
     "xacro_args",
     multiple=True,
@@ -546,6 +554,7 @@ class FileOptions:
     junit_path: Path | None
     packages: tuple[str, ...]
     xacro_args: tuple[str, ...] = ()
+    jobs: int = 1
 
     def given(self) -> bool:
         return any(
@@ -559,6 +568,7 @@ class FileOptions:
                 self.junit_path,
                 self.packages,
                 self.xacro_args,
+                self.jobs != 1,
             )
         )
 
@@ -572,7 +582,7 @@ def _validated_as_files(
         return True
     if options.given():
         raise SvhdescError(
-            "--tier, --format, --select, --ignore, --baseline, --write-baseline, --junit, --package and --arg "
+            "--tier, --format, --select, --ignore, --baseline, --write-baseline, --junit, --package, --arg and --jobs "
             "apply to robot files (PATH), not to built variants"
         )
     return False
@@ -627,7 +637,7 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
     )
     settings = load_settings()
     runs = model_runs(paths or settings.model_files(), settings, command_line, known)
-    reports = [run.run() for run in runs]  # all read before any write
+    reports = _run_models(runs, options.jobs)  # all read before any write
     if options.write_baseline is not None:
         _write_atomically(options.write_baseline, baseline_text(reports))
         click.echo(
@@ -642,6 +652,20 @@ def _validate_robot_files(paths: list[Path], options: FileOptions) -> None:
         _write_atomically(options.junit_path, junit(reports))
     if any(r.failed for r in reports):
         sys.exit(1)
+
+
+def _run_models(runs: list[Any], jobs: int) -> list[Any]:
+    """Each run's report, in order; with jobs > 1 spread over processes (spawned: no state of this one inherited)."""
+    if jobs == 1 or len(runs) < 2:
+        return [run.run() for run in runs]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from svhdesc.validate.models import run_model
+
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(jobs, len(runs)), mp_context=context) as pool:
+        return list(pool.map(run_model, runs))
 
 
 def _xacro_arg(value: str) -> tuple[str, str]:

@@ -90,3 +90,8 @@ def model_runs(
                 )
             )
     return runs
+
+
+def run_model(run: ModelRun) -> FileReport:
+    """``run.run()`` as a module-level function, which a process pool can send to a worker."""
+    return run.run()

@@ -168,3 +168,15 @@ def test_the_cli_runs_the_full_tier_by_default(tmp_path: Path) -> None:
     assert "median load up to" in cases["gravity_hold"].findtext("system-out")
     static = run_cli("validate", str(path), "--tier", "static", in_process=True)
     assert static.returncode == 0, static.stdout
+
+
+def test_jobs_spread_the_models_and_change_nothing(tmp_path: Path) -> None:
+    _arm(tmp_path, 'forcerange="-30 30"', 'forcerange="-1 1"')
+    _write(_panda(), tmp_path / "panda.urdf")
+    (tmp_path / "meshes").symlink_to(PACKAGES["meshes"])
+    one = run_cli("validate", str(tmp_path), in_process=True)
+    two = run_cli("validate", str(tmp_path), "-j", "2", in_process=True)
+    assert one.returncode == two.returncode == 1 and one.stdout == two.stdout, (one.stdout, two.stdout, two.stderr)
+    assert "gravity_hold" in one.stdout and "2 model(s)" in one.stdout
+    refused = run_cli("validate", str(tmp_path), "-j", "0", in_process=True)
+    assert refused.returncode == 2 and refused.stderr.startswith("error:") and "--jobs" in refused.stderr
