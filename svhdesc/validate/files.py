@@ -42,15 +42,50 @@ def _regular(path: Path) -> None:
         raise SvhdescError(f"{path}: not a regular file")
 
 
-def read_xml(path: Path) -> etree._Element:
+# XML declarations that libxml2 refuses and the robotics tools' parsers (TinyXML in urdfdom, pybullet, MuJoCo)
+# accept: a version other than 1.x (pybullet_data writes version="0.0"), or a declaration after a comment.
+_DECLARATION = re.compile(rb"<\?xml\b[^>]*\?>")
+_TOLERATED = ("Unsupported version", "XML declaration allowed only at the start")
+
+
+def read_xml(path: Path, tolerated: list[Finding] | None = None) -> etree._Element:
+    """The file's root element. A declaration only libxml2 refuses is blanked (lines and columns kept) and, where
+    ``tolerated`` is given, reported into it as an xml finding instead of stopping every check."""
     _regular(path)
     try:
-        return etree.parse(str(path), _parser()).getroot()
+        data = path.read_bytes()
+    except OSError as exc:
+        raise SvhdescError(f"{path}: cannot be read ({exc})") from None
+    try:
+        return etree.fromstring(data, _parser(), base_url=str(path))
+    except etree.XMLSyntaxError as exc:
+        line = exc.position[0] if exc.position else exc.lineno
+        declaration = _DECLARATION.search(data)
+        if tolerated is None or declaration is None or not any(t in exc.msg for t in _TOLERATED):
+            raise SvhdescError(f"{path}:{line}: not well-formed XML ({exc.msg})") from None
+        why = exc.msg.split(",")[0]
+    blank = data[: declaration.start()] + b" " * len(declaration.group()) + data[declaration.end() :]
+    root = read_xml_bytes(path, blank)
+    line = data.count(b"\n", 0, declaration.start()) + 1
+    tolerated.append(
+        Finding(
+            "xml",
+            str(path),
+            line,
+            f"{declaration.group().decode(errors='replace')}: {why}; TinyXML-based tools read it, "
+            "libxml2-based ones (lxml, xmllint, ROS 2's launch) refuse it",
+            '<?xml version="1.0"?> as the first line, or no declaration',
+        )
+    )
+    return root
+
+
+def read_xml_bytes(path: Path, data: bytes) -> etree._Element:
+    try:
+        return etree.fromstring(data, _parser(), base_url=str(path))
     except etree.XMLSyntaxError as exc:
         line = exc.position[0] if exc.position else exc.lineno
         raise SvhdescError(f"{path}:{line}: not well-formed XML ({exc.msg})") from None
-    except OSError as exc:
-        raise SvhdescError(f"{path}: cannot be read ({exc})") from None
 
 
 def robot_files(paths: list[Path]) -> list[tuple[Path, bool]]:
@@ -120,10 +155,12 @@ class _Packages(dict):  # type: ignore[type-arg]
         return found
 
 
-def _read_robot(path: Path, packages: dict[str, Path], xacro_args: dict[str, str]) -> tuple[etree._Element, tuple]:
+def _read_robot(
+    path: Path, packages: dict[str, Path], xacro_args: dict[str, str], tolerated: list[Finding]
+) -> tuple[etree._Element, tuple]:
     """The file's root element, and the files a xacro expansion read (none for a plain file)."""
     if not is_xacro(path):
-        return read_xml(path), ()
+        return read_xml(path, tolerated), ()
     from svhdesc.core.source.xacro import expand_xacro
 
     _regular(path)
@@ -144,7 +181,8 @@ def validate_file(
     hide the others' findings."""
     started = time.perf_counter()
     try:
-        root, xacro_files = _read_robot(path, packages, xacro_args or {})
+        tolerated: list[Finding] = []
+        root, xacro_files = _read_robot(path, packages, xacro_args or {}, tolerated)
     except SvhdescError as exc:
         if not walked:
             raise
@@ -155,7 +193,7 @@ def validate_file(
     if root.tag == "robot":
         report = FileReport(str(path), "urdf")
         source = UrdfSource(path, root, _Packages(packages, path), xacro_files)
-        report.checks.append(CheckResult("xml", "pass"))
+        report.checks.append(_result("xml", tolerated))
         for name, rule in RULES.items():
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
@@ -163,7 +201,7 @@ def validate_file(
             report.checks.extend(_full_urdf(source))
     elif root.tag == "mujoco":
         report = FileReport(str(path), "mjcf")
-        report.checks.append(CheckResult("xml", "pass"))
+        report.checks.append(_result("xml", tolerated))
         report.checks.extend(_mjcf_checks(path, selected, tier))
     else:
         raise SvhdescError(f"{path}:{root.sourceline}: not a robot file (root <{root.tag}>, not <robot> or <mujoco>)")

@@ -341,3 +341,25 @@ def test_a_xacro_with_arguments_reports_at_the_macro_files_line(tmp_path: Path, 
     # A folder's walk expands *.urdf.xacro (the robots) but not the macro files they include.
     files = robot_files([tmp_path])
     assert [p.name for p, _ in files] == ["arm.urdf.xacro"]
+
+
+@pytest.mark.parametrize("prefix", ['<?xml version="0.0" ?>\n', '<!-- made by a tool -->\n<?xml version="1.0"?>\n'])
+def test_a_declaration_only_libxml2_refuses_is_a_finding_and_the_rest_is_checked(tmp_path: Path, prefix: str) -> None:
+    tree = _panda()
+    _set("joint[@name='panda_joint5']/limit", effort="0")(tree.getroot())
+    body = etree.tostring(tree.getroot()).decode()
+    path = tmp_path / "panda.urdf"
+    path.write_text(prefix + body)
+    failures = _failures(validate_file(path, ALL, PACKAGES))
+    assert set(failures) == {"xml", "joint_limits"}, failures
+    (declaration,) = failures["xml"]
+    assert declaration.line == prefix.count("\n") and '<?xml version="1.0"?>' in declaration.remedy
+    assert failures["joint_limits"][0].line == body[: body.index('name="panda_joint5"')].count("\n") + 1 + (
+        prefix.count("\n")
+    ) + _limit_offset(body)
+
+
+def _limit_offset(body: str) -> int:
+    """Lines from joint5's tag down to its <limit>."""
+    start = body.index('name="panda_joint5"')
+    return body[start : body.index("<limit", start)].count("\n")
