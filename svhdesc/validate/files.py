@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import re
 import stat
+import sys
 import time
 from pathlib import Path
 
@@ -20,6 +21,12 @@ from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
 from svhdesc.validate.static_urdf import RULES, UrdfSource
 
 STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
+# A ctrlrange may pass its joint's range by what rounding leaves (gymnasium-robotics' Adroit hand writes -0.79 for a
+# joint stopping at -0.785): 1 % of the range, not more.
+ACTUATOR_SLACK = 0.01
+# A keyframe may pass a limit by what printing qpos to a few digits leaves (1.26e-05 past 0 in gymnasium-robotics'
+# kitchen), not by more: 1e-4 rad or m.
+KEYFRAME_SLACK = 1e-4
 TIERS = ("static", "full")
 _SKIP_DIRS = {".git", ".hg", ".svn", "node_modules", "__pycache__", ".venv", "build", "install", "log"}
 
@@ -100,8 +107,26 @@ def robot_files(paths: list[Path]) -> list[tuple[Path, bool]]:
             found.extend((p, True) for p in inside)
         else:
             _regular(path)
+            other = _other_xml(path)
+            if other is not None:  # a package.xml, a launch file: a hook passes every changed *.xml
+                print(f"{path}: skipped, not a robot file (root <{other}>)", file=sys.stderr)
+                continue
             found.append((path, False))
     return found
+
+
+def _other_xml(path: Path) -> str | None:
+    """The root tag of a *.xml rooted at neither <robot> nor <mujoco> (a fault after the root's start tag does not
+    make it one); None for any other file, and for one whose root cannot be read, which validate_file names."""
+    if path.suffix != ".xml":
+        return None
+    try:
+        with path.open("rb") as stream:
+            for _, element in etree.iterparse(stream, events=("start",), resolve_entities=False, no_network=True):
+                return None if element.tag in ("robot", "mujoco") else str(element.tag)
+    except (etree.XMLSyntaxError, OSError):
+        pass
+    return None
 
 
 def _walk(folder: Path) -> list[Path]:
@@ -264,9 +289,12 @@ def _mjcf_where(path: Path, files: list[tuple[Path, etree._Element]]):  # type: 
 def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[CheckResult]:
     import mujoco
 
+    from svhdesc.validate.compile_file import quiet_mujoco
+
     files = _mjcf_files(path)
     try:
-        model = mujoco.MjModel.from_xml_path(str(path))
+        with quiet_mujoco() as said:  # MuJoCo's compiler warnings (deprecated attributes) go into the figure
+            model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
         message = str(exc).strip().splitlines()
         line_match = re.search(r"line (\d+)", str(exc))
@@ -278,7 +306,9 @@ def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[C
             for n in (*STATIC_MJCF_CHECKS[1:], *(FULL_CHECKS if tier == "full" else ()))
         ]
         return [CheckResult("mjcf_compile", "fail", [finding]), *rest]
-    checks = [CheckResult("mjcf_compile", "pass"), _actuator_ranges(model, files), _keyframes(model, files)]
+    warned = "; ".join(" ".join(line.split()) for line in said)
+    compiled = CheckResult("mjcf_compile", "pass", figure=warned)
+    checks = [compiled, _actuator_ranges(model, files), _keyframes(model, files)]
     if tier == "full" and selected & set(FULL_CHECKS):
         from svhdesc.validate.compile_file import mjcf_compiled
 
@@ -306,7 +336,7 @@ def _actuator_ranges(model, files) -> CheckResult:  # type: ignore[no-untyped-de
             continue
         lo, hi = model.jnt_range[joint]
         clo, chi = model.actuator_ctrlrange[i]
-        slack = 1e-6 * max(1.0, hi - lo)
+        slack = ACTUATOR_SLACK * (hi - lo)
         if clo < lo - slack or chi > hi + slack:
             where, line = _locate(files, "position", actuator.name) if actuator.name else (str(files[0][0]), None)
             if line is None and actuator.name:
@@ -339,7 +369,7 @@ def _keyframes(model, files) -> CheckResult:  # type: ignore[no-untyped-def]
                 continue
             q = float(key.qpos[model.jnt_qposadr[j]])
             lo, hi = model.jnt_range[j]
-            if q < lo - 1e-6 or q > hi + 1e-6:
+            if q < lo - KEYFRAME_SLACK or q > hi + KEYFRAME_SLACK:
                 where, line = _locate(files, "key", key.name) if key.name else (str(files[0][0]), None)
                 findings.append(
                     Finding(

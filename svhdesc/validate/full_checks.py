@@ -4,14 +4,16 @@
   for 0.1 s, and no MuJoCo warning (bad acceleration, contact or constraint buffer full, ...), nothing non-finite.
 - settle: 1 s from the rest pose (keyframe 0, else the zero pose within the limits) with the servos holding it:
   the model does not diverge at its own timestep.
-- rest_contacts: in no pose the file states (its keyframes; an MJCF's qpos0 without one) do two bodies
-  interpenetrate deeper than 5 mm. A URDF states no pose: skipped, with the pairs that touch in every pose named.
+- rest_contacts: in no pose the file states (its keyframes; an MJCF's qpos0 without one, when it lies within the
+  limits) do two bodies other than a parent and its child interpenetrate deeper than 5 mm. A URDF states no pose:
+  skipped, with the pairs that touch in every pose named.
 - equality_tracking: every equality constraint (a URDF <mimic>) holds within 5 % of its follower's range (at least
   0.01 rad or m) while the leaders'
   position servos sweep their ranges (rest, upper end, lower end, rest) in 1 s, the rest held, contacts off.
 - gravity_hold: each joint's rated force (URDF effort, an actuator's force bound) holds its share of the robot's
-  weight in at least half of 65 poses within the limits (the rest pose and 64 of a Halton sequence), by inverse
-  dynamics with the constraints off; the value that passes is the worst pose's load.
+  weight, by inverse dynamics with the constraints off: a URDF (which states no pose) in at least half of 65 poses
+  within the limits (the rest pose and 64 of a Halton sequence), an MJCF in each pose it states (its keyframes,
+  else qpos0); a floating-base MJCF is skipped (settle covers it). The value that passes is the worst pose's load.
 """
 
 from __future__ import annotations
@@ -119,6 +121,13 @@ def rest_contacts(compiled: Compiled) -> CheckResult:
             reason=f"a URDF states no pose; pairs of links touching in every pose, left out of contact as MoveIt's "
             f"setup assistant disables them: {len(compiled.overlapping)} ({listed})",
         )
+    outside = _outside_limits(model)
+    if not model.nkey and outside:
+        return CheckResult(
+            "rest_contacts",
+            "skipped",
+            reason=f"no keyframe, and qpos0 is no pose of the robot: joint '{outside}' is outside its range there",
+        )
     data = mujoco.MjData(model)
     found: dict[tuple[str, str], tuple[float, str]] = {}
     poses = list(range(model.nkey)) or [None]
@@ -142,14 +151,24 @@ def rest_contacts(compiled: Compiled) -> CheckResult:
     return CheckResult("rest_contacts", "fail" if findings else "pass", findings, figure=figure)
 
 
+def _outside_limits(model) -> str:  # type: ignore[no-untyped-def]
+    """The first 1-dof joint whose qpos0 lies outside its range, or ""."""
+    for joint in np.flatnonzero(model.jnt_limited & np.isin(model.jnt_type, (2, 3))):
+        q, (lo, hi) = model.qpos0[model.jnt_qposadr[joint]], model.jnt_range[joint]
+        if q < lo - 1e-9 or q > hi + 1e-9:
+            return str(model.joint(joint).name or joint)
+    return ""
+
+
 def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
     import mujoco
 
     model = compiled.model
-    if model.neq == 0:
-        return CheckResult("equality_tracking", "skipped", reason="no equality constraints (no <mimic>)")
+    couplings = np.flatnonzero(model.eq_type == mujoco.mjtEq.mjEQ_JOINT)
+    if couplings.size == 0:  # a weld to a mocap body drives the robot; it couples no joints
+        return CheckResult("equality_tracking", "skipped", reason="no joint couplings (<mimic>, <equality><joint>)")
     data, _ = rest_state(model)
-    leaders = {int(model.eq_obj2id[e]) for e in range(model.neq) if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT}
+    leaders = {int(model.eq_obj2id[e]) for e in couplings}
     servos = [  # the leaders' servos sweep; every other joint is held where it rests
         i
         for i in range(model.nu)
@@ -177,7 +196,7 @@ def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
         model.opt.disableflags = saved
     findings = []
     bounds = np.array([_equality_bound(model, e) for e in range(model.neq)])
-    for e in np.flatnonzero(watch.equality > bounds):
+    for e in couplings[watch.equality[couplings] > bounds[couplings]]:
         name = model.eq(e).name
         joint = model.joint(model.eq_obj1id[e]).name if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT else ""
         file, line = compiled.where("equality", name or joint) if compiled.kind == "mjcf" else (None, None)
@@ -188,7 +207,7 @@ def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
         findings.append(
             Finding("equality_tracking", file, line, f"{message} {SWEEP_SECONDS:g} s (bound {bounds[e]:.3g})")
         )
-    figure = f"worst residual {float(np.max(watch.equality)):.3g} over a {SWEEP_SECONDS:g} s sweep"
+    figure = f"worst residual {float(np.max(watch.equality[couplings])):.3g} over a {SWEEP_SECONDS:g} s sweep"
     return CheckResult("equality_tracking", "fail" if findings else "pass", findings, figure=figure)
 
 
@@ -203,51 +222,73 @@ def _equality_bound(model, equality: int) -> float:  # type: ignore[no-untyped-d
 
 
 def gravity_hold(compiled: Compiled) -> CheckResult:
+    """A URDF states no pose: its joints must hold their load in most of the sampled poses. An MJCF states its
+    poses (keyframes, else qpos0): its actuators must hold each of them. A floating base is held by the floor,
+    which settle covers; the load on its joints depends on how it stands, so it is not judged here."""
     import mujoco
 
     model = compiled.model
     rated = {j: f for j, f in compiled.rated.items() if model.jnt_type[j] in (2, 3)}
     if not rated:
         return CheckResult("gravity_hold", "skipped", reason="no joint states a force it is rated for")
+    if compiled.kind == "mjcf" and np.any(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE):
+        return CheckResult("gravity_hold", "skipped", reason="a floating base: the floor holds it (see settle)")
+    poses, label = _stated_poses(compiled)
     saved = model.opt.disableflags
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT  # the actuators alone hold the weight
     try:
-        loads = _holding_loads(model, list(rated))
+        loads = _holding_loads(model, list(rated), poses)
     finally:
         model.opt.disableflags = saved
+    judged = {j: float(np.median(v) if compiled.kind == "urdf" else np.max(v)) for j, v in loads.items()}
     findings = []
     for joint, force in rated.items():
-        typical, worst = float(np.median(loads[joint])), float(np.max(loads[joint]))
-        if typical > force:
+        if judged[joint] > force:
             name = model.joint(joint).name
             file, line = compiled.where("joint", name)
             unit = "N m" if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_HINGE else "N"
+            worst = float(np.max(loads[joint]))
             message = (
-                f"joint '{name}' is rated {force:.4g} {unit} but needs more to hold against gravity in most poses "
-                f"(median {typical:.4g}, worst {worst:.4g} of {GRAVITY_SAMPLES + 1})"
+                f"joint '{name}' is rated {force:.4g} {unit} but needs {judged[joint]:.4g} to hold against "
+                f"gravity in {label} (worst {worst:.4g})"
             )
             findings.append(Finding("gravity_hold", file, line, message, _remedy(compiled, worst)))
-    ratio = max(float(np.median(loads[j])) / f for j, f in rated.items())
-    figure = f"median load up to {ratio:.3g} x rated"
+    ratio = max(judged[j] / f for j, f in rated.items())
+    figure = f"load up to {ratio:.3g} x rated in {label}"
     return CheckResult("gravity_hold", "fail" if findings else "pass", findings, figure=figure)
 
 
-def _holding_loads(model, joints: list[int]) -> dict[int, np.ndarray]:  # type: ignore[no-untyped-def]
-    """Each joint's generalized force holding the robot still against gravity, in every sampled pose."""
+def _stated_poses(compiled: Compiled) -> tuple[list[np.ndarray], str]:
+    """The poses a gravity load is judged in, and how the finding names them."""
     import mujoco
 
+    model = compiled.model
     data, _ = rest_state(model)
-    rest = data.qpos.copy()
-    loads = {joint: np.zeros(GRAVITY_SAMPLES + 1) for joint in joints}
-    for sample in range(GRAVITY_SAMPLES + 1):
-        data.qpos[:] = rest
-        if sample:
-            set_pose(model, data, sample)
+    if compiled.kind == "mjcf":
+        if model.nkey:
+            return [model.key_qpos[k].copy() for k in range(model.nkey)], f"its {model.nkey} keyframe(s)"
+        return [data.qpos.copy()], "its rest pose (qpos0)"
+    poses = [data.qpos.copy()]
+    for sample in range(1, GRAVITY_SAMPLES + 1):
+        set_pose(model, data, sample)
+        poses.append(data.qpos.copy())
+    mujoco.mj_resetData(model, data)
+    return poses, f"most of {GRAVITY_SAMPLES + 1} poses (median)"
+
+
+def _holding_loads(model, joints: list[int], poses: list[np.ndarray]) -> dict[int, np.ndarray]:  # type: ignore[no-untyped-def]
+    """Each joint's generalized force holding the robot still against gravity, in each pose."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    loads = {joint: np.zeros(len(poses)) for joint in joints}
+    for index, qpos in enumerate(poses):
+        data.qpos[:] = qpos
         data.qvel[:] = 0
         data.qacc[:] = 0
         mujoco.mj_inverse(model, data)
         for joint in joints:
-            loads[joint][sample] = abs(float(data.qfrc_inverse[model.jnt_dofadr[joint]]))
+            loads[joint][index] = abs(float(data.qfrc_inverse[model.jnt_dofadr[joint]]))
     return loads
 
 

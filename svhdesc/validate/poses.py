@@ -57,13 +57,18 @@ def rest_state(model):  # type: ignore[no-untyped-def]
 
 
 def contact_pairs(model, data) -> dict[tuple[str, str], float]:  # type: ignore[no-untyped-def]
-    """Each pair of bodies in contact in data's pose and its deepest penetration (m, > 0)."""
+    """Each pair of bodies in contact in data's pose and its deepest penetration (m, > 0). A body touching its
+    parent is left out, whatever the parent: MuJoCo filters those pairs except where the parent is welded to the
+    world, which a gripper's palm is only while the file is loaded on its own."""
     import mujoco
 
     mujoco.mj_forward(model, data)
     pairs: dict[tuple[str, str], float] = {}
     for contact in data.contact[: data.ncon]:
-        a, b = sorted(model.body(model.geom_bodyid[g]).name or "world" for g in contact.geom)
+        first, second = (int(model.geom_bodyid[g]) for g in contact.geom)
+        if first == model.body_parentid[second] or second == model.body_parentid[first]:
+            continue
+        a, b = sorted(model.body(body).name or "world" for body in (first, second))
         pairs[(a, b)] = max(pairs.get((a, b), 0.0), -float(contact.dist))
     return pairs
 
