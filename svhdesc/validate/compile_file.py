@@ -46,6 +46,8 @@ class Compiled:
     kind: str = "urdf"
     # pairs of links in contact in every sampled pose, excluded from contact as MoveIt's setup assistant disables them
     overlapping: tuple[tuple[str, str], ...] = ()
+    # joint id -> its velocity limit (URDF <limit velocity>), which a sweep of its servo respects
+    velocity: dict[int, float] = field(default_factory=dict)
 
 
 class CompileFailed(SvhdescError):
@@ -215,11 +217,13 @@ def compile_urdf(source: UrdfSource) -> Compiled:
                 "(see inertials)"
             )
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-        # A <mimic> is a rigid coupling; MuJoCo's default equality (a 0.02 s time constant) sags under gravity by
-        # about g x 0.02^2 / the link's length, 0.03 to 0.06 rad on a gripper's finger. The stiffest stable
-        # constraint is twice the timestep (MuJoCo's guidance for solref).
+        # A <mimic> is a rigid coupling. MuJoCo's default equality is soft: a 0.02 s time constant sags 0.03 to
+        # 0.06 rad on a gripper's finger under gravity, and an impedance of 0.9 to 0.95 lets a follower's own
+        # damping drag it (svh_right's j4: 0.08 N m s on 1.9e-6 kg m2, 0.09 rad behind). The stiffest stable time
+        # constant is twice the timestep (MuJoCo's guidance for solref), the impedance 0.99 to 0.999 (0.010 rad).
         for equality in spec.equalities:
             equality.solref = [2 * spec.option.timestep, 1.0]
+            equality.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
         _exclude_joined(spec, root)
         efforts = _servos(spec, root)
         model = spec.compile()
@@ -230,11 +234,28 @@ def compile_urdf(source: UrdfSource) -> Compiled:
     notes += [f"MuJoCo: {' '.join(line.split())}" for line in said]
 
     def where(tag: str, name: str) -> tuple[str, int | None]:
-        element = source.root.find(f"{'link' if tag == 'body' else 'joint'}[@name='{name}']")
+        """tag body: the <link>; joint: the <joint>; rating: the joint's <limit> (its effort)."""
+        path = {"body": f"link[@name='{name}']", "rating": f"joint[@name='{name}']/limit"}
+        element = source.root.find(path.get(tag, f"joint[@name='{name}']"))
+        if element is None and tag == "rating":
+            element = source.root.find(f"joint[@name='{name}']")
         return source.where(element) if element is not None else (str(source.path), None)
 
     rated = {model.joint(name).id: effort for name, effort in efforts.items()}
-    return Compiled(model, where, rated, notes, "urdf", tuple(sorted(overlapping)))
+    velocity = {model.joint(name).id: speed for name, speed in _velocities(root).items() if name in efforts}
+    return Compiled(model, where, rated, notes, "urdf", tuple(sorted(overlapping)), velocity)
+
+
+def _velocities(root: etree._Element) -> dict[str, float]:
+    found = {}
+    for limit in root.iterfind("joint/limit"):
+        try:
+            speed = float(limit.get("velocity", "nan"))
+        except ValueError:
+            continue
+        if np.isfinite(speed) and speed > 0:
+            found[limit.getparent().get("name", "")] = speed
+    return found
 
 
 @contextmanager

@@ -274,8 +274,18 @@ def _full_urdf(source: UrdfSource) -> list[CheckResult]:
     return [compiled_check, *run_full_checks(compiled)]
 
 
+_ACTUATOR_TAGS = ("general", "motor", "position", "velocity", "intvelocity", "damper", "cylinder", "muscle")
+
+
 def _mjcf_where(path: Path, files: list[tuple[Path, etree._Element]]):  # type: ignore[no-untyped-def]
     def where(tag: str, name: str) -> tuple[str, int | None]:
+        """tag rating: the actuator driving joint ``name`` (its force bound), else the joint."""
+        if tag == "rating":
+            for file, root in files:
+                for element in root.iterfind("actuator/*"):
+                    if element.tag in _ACTUATOR_TAGS and element.get("joint") == name:
+                        return str(file), element.sourceline
+            tag = "joint"
         if tag == "equality":
             for file, root in files:
                 for element in root.iterfind("equality/*"):

@@ -85,7 +85,12 @@ def test_the_clean_arm_and_panda_pass_every_check(tmp_path: Path) -> None:
 
 # check -> (old text, new text, the text of the line the finding points at, the fault's words)
 MJCF_SEEDS: dict[str, tuple[str, str, str | None, str]] = {
-    "gravity_hold": ('forcerange="-30 30"', 'forcerange="-1 1"', '<joint name="shoulder"', "to hold against gravity in its 1 keyframe"),
+    "gravity_hold": (
+        'forcerange="-30 30"',
+        'forcerange="-1 1"',
+        '<position name="shoulder"',  # where the rating is written
+        "to hold against gravity in its 1 keyframe",
+    ),
     "equality_tracking": (  # a coupling as soft as a 0.5 s spring: the tip hangs instead of following
         'solref="0.004 1"',
         'solref="0.5 1"',
@@ -113,7 +118,7 @@ def test_gravity_hold_names_the_effort_that_would_pass(tmp_path: Path) -> None:
     path = _write(tree, tmp_path / "panda.urdf")
     (finding,) = _failures(validate_file(path, ALL, PACKAGES, tier="full"))["gravity_hold"]
     assert "joint 'panda_joint2' is rated 2 N m" in finding.message
-    assert finding.line == _line(path, '<joint name="panda_joint2"')
+    assert finding.line == etree.parse(str(path)).find("joint[@name='panda_joint2']/limit").sourceline
     needed = float(finding.remedy.split('"')[1])
     passing = _panda()
     _set("joint[@name='panda_joint2']/limit", effort=str(needed))(passing.getroot())
