@@ -211,7 +211,7 @@ def test_pre_commit_try_repo_passes_a_clean_model(tmp_path: Path) -> None:
 def test_an_installed_hook_refuses_a_commit_with_a_seeded_fault(tmp_path: Path) -> None:
     """A repository's .pre-commit-config.yaml naming both hooks, installed as its git hook: the clean arm commits
     (static and full tier pass), the arm with the elbow's limits inverted does not, and the output names arm.urdf
-    at the <limit> line; put right, it commits."""
+    at the <limit> line; the same change made right commits."""
     hooks, rev = _snapshot(tmp_path / "hooks")
     repo = _robot_repo(tmp_path / "robot")
     config = {"repos": [{"repo": str(hooks), "rev": rev, "hooks": [{"id": "svhdesc-validate-static"}]}]}
@@ -228,9 +228,10 @@ def test_an_installed_hook_refuses_a_commit_with_a_seeded_fault(tmp_path: Path) 
         return subprocess.run(args, cwd=repo, env=env, capture_output=True, text=True, timeout=600)
 
     clean = commit("a clean arm")
-    assert clean.returncode == 0, clean.stdout + clean.stderr
-    assert re.search(r"svhdesc validate \(static\)\.+Passed", clean.stdout), clean.stdout
-    assert re.search(r"svhdesc validate\.+Passed", clean.stdout), clean.stdout
+    output = clean.stdout + clean.stderr  # git runs the hook with its stdout on git's stderr
+    assert clean.returncode == 0, output
+    assert re.search(r"svhdesc validate \(static\)\.+Passed", output), output
+    assert re.search(r"svhdesc validate\.+Passed", output), output
     (repo / "urdf" / "arm.urdf").write_text(INVERTED)
     refused = commit("the elbow's limits inverted")
     output = refused.stdout + refused.stderr
@@ -238,8 +239,9 @@ def test_an_installed_hook_refuses_a_commit_with_a_seeded_fault(tmp_path: Path) 
     assert re.search(r"svhdesc validate \(static\)\.+Failed", output), output
     assert FINDING in output, output
     assert _git(repo, "rev-list", "--count", "HEAD").strip() == "1"
-    (repo / "urdf" / "arm.urdf").write_text(ARM)
-    assert commit("put right").returncode == 0
+    (repo / "urdf" / "arm.urdf").write_text(ARM.replace('upper="2"', 'upper="2.5"'))
+    put_right = commit("the elbow's range widened")
+    assert put_right.returncode == 0, put_right.stdout + put_right.stderr
 
 
 EXPRESSION = re.compile(r"\$\{\{\s*(.*?)\s*\}\}")
@@ -333,6 +335,7 @@ def test_the_action_steps_annotate_a_seeded_fault_and_pass_a_clean_model(tmp_pat
         capture_output=True,
         text=True,
         env=env,
+        cwd=workspace,
     )
     assert where.stdout.startswith(site), where.stdout + where.stderr  # the installed copy, not this checkout
 
