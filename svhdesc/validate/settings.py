@@ -10,7 +10,10 @@
     args = { side = ["left", "right"], gripper = "true" }  # a list: one model per choice, as pal's urdf_test
     ignore = { inertials = "the base is welded to the world" }
 
-Read where it is used, with every fault one error naming pyproject.toml and the line of the key.
+An svhdesc.yaml beside a model may add a ``validate:`` section with the same keys as a model's table (args,
+packages, select, ignore); it applies to every model in its folder, on top of pyproject.toml's.
+
+Read where it is used, with every fault one error naming the file and the line of the key.
 """
 
 from __future__ import annotations
@@ -53,18 +56,15 @@ class RepoSettings:
         return self.file.parent if self.file else Path.cwd()
 
     def for_model(self, path: Path) -> ModelSettings:
-        """The common settings with those of every [tool.svhdesc.model."GLOB"] matching ``path`` on top."""
+        """The common settings, those of every [tool.svhdesc.model."GLOB"] matching ``path`` on top, and those of
+        the ``validate:`` section of an svhdesc.yaml beside the model on top of all."""
         relative = _relative_to(path, self.root)
         merged = self.common
         for pattern, settings in self.per_model:
             if relative is not None and fnmatch.fnmatch(relative, pattern):
-                merged = ModelSettings(
-                    {**merged.args, **settings.args},
-                    {**merged.packages, **settings.packages},
-                    settings.select or merged.select,
-                    {**merged.ignore, **settings.ignore},
-                )
-        return merged
+                merged = _merged(merged, settings)
+        beside = beside_settings(path)
+        return _merged(merged, beside) if beside is not None else merged
 
     def model_files(self) -> list[Path]:
         """The files ``models`` names, in order, each once; a pattern matching nothing is an error."""
@@ -78,6 +78,38 @@ class RepoSettings:
 
     def _where(self, key: str) -> str:
         return _where(self.file, key) if self.file else "[tool.svhdesc]"
+
+
+def _merged(under: ModelSettings, over: ModelSettings) -> ModelSettings:
+    return ModelSettings(
+        {**under.args, **over.args},
+        {**under.packages, **over.packages},
+        over.select or under.select,
+        {**under.ignore, **over.ignore},
+    )
+
+
+def beside_settings(model: Path) -> ModelSettings | None:
+    """The ``validate:`` section of svhdesc.yaml in the model's folder (args, packages, select, ignore, as a
+    [tool.svhdesc.model] table), for every model there; None without one. A build config of the same name has no
+    such section and is not read as one."""
+    file = model.parent / "svhdesc.yaml"
+    if not file.is_file():
+        return None
+    import yaml
+
+    try:
+        document = yaml.safe_load(file.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SvhdescError(f"{file}: cannot be read ({exc})") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{file}:{mark.line + 1}" if mark is not None else str(file)
+        raise SvhdescError(f"{where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    if not isinstance(document, dict) or "validate" not in document:
+        return None
+    section = _keys(file, document["validate"], _MODEL_KEYS, "validate")
+    return _model_settings(file, section, "validate")
 
 
 def _relative_to(path: Path, root: Path) -> str | None:
@@ -94,8 +126,9 @@ def _where(file: Path, key: str, section: str = "tool.svhdesc") -> str:
         lines = file.read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError:
         return str(file)
-    header = next((n for n, line in enumerate(lines) if section in line and line.lstrip().startswith("[")), 0)
-    assigns = re.compile(rf'\s*"?{re.escape(key)}"?\s*=|.*[{{,]\s*"?{re.escape(key)}"?\s*=')
+    is_header = re.compile(rf"\s*\[.*{re.escape(section)}|{re.escape(section)}\s*:")  # TOML [table], YAML key:
+    header = next((n for n, line in enumerate(lines) if is_header.match(line)), 0)
+    assigns = re.compile(rf'\s*"?{re.escape(key)}"?\s*[=:]|.*[{{,]\s*"?{re.escape(key)}"?\s*[=:]')
     found = next((n for n in range(header, len(lines)) if assigns.match(lines[n])), header)
     return f"{file}:{found + 1}"
 

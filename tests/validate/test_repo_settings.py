@@ -88,3 +88,19 @@ def test_a_models_pattern_that_matches_nothing_is_an_error(repo: Path) -> None:
     (repo / "pyproject.toml").write_text(PYPROJECT.format(extra="").replace("urdf/*.urdf.xacro", "mjcf/*.xml"))
     code, _, err = _validate()
     assert code == 2 and "'mjcf/*.xml' matches no file" in err and "pyproject.toml:5:" in err
+
+
+def test_an_svhdesc_yaml_beside_the_model_adds_its_validate_section(repo: Path) -> None:
+    faulty = XACRO.replace("${LOWER}", "${-1.0 if side == 'left' else 2.0}")
+    (repo / "urdf" / "arm.urdf.xacro").write_text(faulty)
+    beside = repo / "urdf" / "svhdesc.yaml"
+    beside.write_text("variants: {}\n")  # a build config of the same name: no validate section, not read
+    assert _validate()[0] == 1
+    beside.write_text("validate:\n  ignore:\n    joint_limits: the right arm's limits are being reworked\n")
+    code, out, err = _validate("--format", "json")
+    assert code == 0, out + err
+    limits = [c for r in json.loads(out) for c in r["checks"] if c["name"] == "joint_limits"]
+    assert {c["status"] for c in limits} == {"skipped"} and "being reworked" in limits[0]["reason"]
+    beside.write_text("validate:\n  ignore:\n    joint_limits: ok\n  colour: 1\n")
+    code, _, err = _validate()
+    assert code == 2 and f"{beside}:4: unknown key 'colour'" in err, err
