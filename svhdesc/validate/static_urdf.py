@@ -7,6 +7,7 @@ and would substitute guesses for the values it is meant to judge.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Callable
@@ -456,21 +457,36 @@ def check_meshes(source: UrdfSource) -> list[Finding]:
 
 
 def _mesh_diagonal(path: Path, scale: str | None) -> float | None:
+    """The scaled mesh's bounding-box diagonal; None when it does not load, nan when it holds no triangles."""
     try:
-        import trimesh
-
-        loaded = trimesh.load(str(path), force="mesh", process=False)
-    except Exception:  # any reader's failure is the finding "does not load"
+        stat = path.stat()
+    except OSError:
         return None
-    if loaded.bounds is None:  # read, but no triangles trimesh takes (a COLLADA of lines, say): no size to judge
-        return math.nan
-    bounds = np.asarray(loaded.bounds, dtype=float)
+    bounds = _mesh_bounds(str(path), stat.st_size, stat.st_mtime_ns)
+    if bounds is None or not isinstance(bounds, np.ndarray):
+        return bounds
     factors = np.array(_floats(scale) or [1.0, 1.0, 1.0])
     if factors.shape != (3,):  # a malformed scale is the numbers check's finding; judge the size unscaled
         factors = np.ones(3)
     if bounds.shape != (2, 3) or not np.all(np.isfinite(bounds)):
         return None
     return float(np.linalg.norm((bounds[1] - bounds[0]) * np.abs(factors)))
+
+
+@functools.lru_cache(maxsize=4096)
+def _mesh_bounds(path: str, size: int, mtime_ns: int) -> np.ndarray | float | None:
+    """A mesh file's bounds, read once per process and version of the file (links and models share meshes)."""
+    try:
+        import trimesh
+
+        loaded = trimesh.load(path, force="mesh", process=False)
+    except Exception:  # any reader's failure is the finding "does not load"
+        return None
+    if loaded.bounds is None:  # read, but no triangles trimesh takes (a COLLADA of lines, say): no size to judge
+        return math.nan
+    bounds = np.asarray(loaded.bounds, dtype=float)
+    bounds.setflags(write=False)
+    return bounds
 
 
 RULES: dict[str, Rule] = {
