@@ -1,8 +1,9 @@
 """The full tier's checks on a compiled robot file: it is simulated, not only read.
 
 - model_test: MuJoCo Menagerie's model test: controls drawn from a Halton sequence within each actuator's ctrlrange
-  for 0.1 s, and no MuJoCo warning (bad acceleration, contact or constraint buffer full, ...), nothing non-finite.
-- settle: 1 s from the rest pose (keyframe 0, else the zero pose within the limits) with the servos holding it:
+  for 0.1 s (50 steps at least), and no MuJoCo warning (bad acceleration, contact or constraint buffer full, ...),
+  nothing non-finite.
+- settle: 1 s (50 steps at least) from the rest pose (keyframe 0, else the zero pose within the limits) holding it:
   the model does not diverge at its own timestep.
 - rest_contacts: in no pose the file states (its keyframes; an MJCF's qpos0 without one, when it lies within the
   limits) do two bodies other than a parent and its child interpenetrate deeper than 5 mm. A URDF states no pose:
@@ -30,6 +31,7 @@ from svhdesc.validate.poses import contact_pairs, halton, rest_state, set_pose
 FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold")
 MODEL_TEST_SECONDS = 0.1  # Menagerie's
 SETTLE_SECONDS = 1.0
+MIN_STEPS = 50  # a run is this many steps at least: at a timestep of 0.1 s, 1 s is ten steps, too few to diverge
 SWEEP_SECONDS = 1.0
 MAX_SWEEP_SECONDS = 10.0
 PENETRATION_BOUND = 0.005  # m
@@ -92,7 +94,7 @@ def model_test(compiled: Compiled, watch: _Watch) -> CheckResult:
     data, _ = rest_state(model)
     limited = np.flatnonzero(model.actuator_ctrllimited)
     lo, hi = model.actuator_ctrlrange[limited, 0], model.actuator_ctrlrange[limited, 1]
-    steps = max(1, round(MODEL_TEST_SECONDS / model.opt.timestep))
+    steps = max(MIN_STEPS, round(MODEL_TEST_SECONDS / model.opt.timestep))
     for step in range(1, steps + 1):
         data.ctrl[limited] = lo + (hi - lo) * halton(step, limited.size)
         if not watch.step(data):
@@ -102,12 +104,12 @@ def model_test(compiled: Compiled, watch: _Watch) -> CheckResult:
 
 def settle(compiled: Compiled, watch: _Watch) -> CheckResult:
     data, pose = rest_state(compiled.model)
-    steps = max(1, round(SETTLE_SECONDS / compiled.model.opt.timestep))
+    steps = max(MIN_STEPS, round(SETTLE_SECONDS / compiled.model.opt.timestep))
     for _ in range(steps):
         if not watch.step(data):
             break
     speed = float(np.max(np.abs(data.qvel))) if compiled.model.nv else 0.0
-    what = f"{SETTLE_SECONDS:g} s from {pose}, |qvel| {speed:.3g} at the end"
+    what = f"{steps * compiled.model.opt.timestep:g} s from {pose}, |qvel| {speed:.3g} at the end"
     return _run_result(compiled, "settle", data, watch, what)
 
 
