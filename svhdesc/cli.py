@@ -764,13 +764,14 @@ def deploy_command(task_name: str, policy: Path, duration: float | None, seed: i
     forward position controllers. Prints the policy node's measure of the episode as one JSON line."""
     import json
 
+    from svhdesc.learn.cli_run import check_seed, positive_seconds
     from svhdesc.learn.deploy import run
     from svhdesc.learn.tasks import task
 
     chosen = task(task_name)
+    positive_seconds("--duration", duration)
+    check_seed(seed)
     seconds = duration if duration is not None else chosen.episode_s
-    if not seconds > 0:
-        raise SvhdescError(f"--duration must be positive, not {seconds}")
     _say(json.dumps(run(chosen, policy, seed, seconds), sort_keys=True))
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from svhdesc.compare import experiment
 from svhdesc.compare.engine import TIMESTEP, Engine, EngineMissing, RunConfig
+from svhdesc.errors import SvhdescError
 
 ENGINES: dict[str, str] = {
     "mujoco": "svhdesc.compare.mujoco_engine:MujocoEngine",
@@ -235,6 +236,8 @@ def run_grid(
     conditions: experiment.Conditions | None = None,
 ) -> tuple[experiment.Setup, list[Result]]:
     """Every engine x inertia; ``progress(result)`` is called after each run."""
+    if duration is not None and not 0 < duration < math.inf:  # inf failed every run, then exited 0
+        raise SvhdescError(f"--duration must be a positive, finite number of seconds, not {duration}")
     from svhdesc.compare.mujoco_engine import finger_links, hand_links, servo
     from svhdesc.model import get
 

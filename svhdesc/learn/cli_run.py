@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable
@@ -20,6 +21,26 @@ def _envs(task: Task, envs: int | None, device: str) -> int:
     if count < 1:
         raise SvhdescError(f"--envs must be at least 1, not {count}")
     return count
+
+
+def positive_seconds(option: str, value: float | None) -> None:
+    """A duration the user gave: a positive, finite number (``inf`` would run forever, ``nan`` compares false)."""
+    if value is not None and not 0 < value < math.inf:
+        raise SvhdescError(f"{option} must be a positive, finite number, not {value}")
+
+
+def check_seed(seed: int) -> None:
+    """A seed torch and numpy take: a 64-bit integer (a larger one is an overflow traceback in torch)."""
+    if not -(2**63) <= seed < 2**63 - 1024:  # room for the ranks' seed + rank
+        raise SvhdescError(f"--seed must be a 64-bit integer, not {seed}")
+
+
+def _budget(minutes: float | None, iterations: int | None) -> None:
+    positive_seconds("--minutes", minutes)
+    if iterations is not None and iterations < 1:
+        raise SvhdescError(f"--iterations must be at least 1, not {iterations}")
+    if minutes is None and iterations is None:
+        raise SvhdescError("say how long to train: --minutes M or --iterations N")
 
 
 def _out(task: Task, out: Path | None, resume: Path | None) -> Path:
@@ -48,22 +69,20 @@ def run_train(
 ) -> Path:
     from svhdesc.learn.checkpoint import load_checkpoint
     from svhdesc.learn.env import TaskEnv
+    from svhdesc.learn.memory import check_envs
     from svhdesc.learn.train import check_device, train
 
     task = find_task(task_name)
     count = _envs(task, envs, device)
-    if minutes is not None and not minutes > 0:
-        raise SvhdescError(f"--minutes must be positive, not {minutes}")
-    if iterations is not None and iterations < 1:
-        raise SvhdescError(f"--iterations must be at least 1, not {iterations}")
-    if minutes is None and iterations is None:
-        raise SvhdescError("say how long to train: --minutes M or --iterations N")
+    _budget(minutes, iterations)
+    check_seed(seed)
     check_device(device)
     if backend == "mujoco" and device != "cpu":
         raise SvhdescError(f"--backend mujoco runs on the CPU, not on {device!r}")
     if resume is not None:
         load_checkpoint(resume, task)
     folder = _out(task, out, resume)
+    check_envs(task, count, device, backend)  # before the worlds are allocated
     rank = int(os.getenv("RANK", "0"))  # under torchrun: each rank its own worlds and draws; rank 0 speaks
     if rank != 0:
         say = _silent
@@ -99,6 +118,16 @@ def policy_file(task: Task, checkpoint: Path, scratch: Path) -> Path:
     return export_onnx(runner, scratch / "policy.onnx", task, env)
 
 
+def _play_counts(task: Task, frames: int, episodes: int, out: Path | None) -> None:
+    """At least one episode (none only beside --out: the strip alone); at most one frame per control step of the
+    episode the strip shows (more would repeat states, and 1e9 of them are gigabytes before the first step)."""
+    steps = max(1, round(task.episode_s * task.control_hz))
+    if not 1 <= frames <= steps:
+        raise SvhdescError(f"--frames must be from 1 to {steps} (one per control step of an episode), not {frames}")
+    if episodes < 0 or (episodes == 0 and out is None):
+        raise SvhdescError(f"--episodes must be at least 1 (0 only with --out: the strip alone), not {episodes}")
+
+
 def run_play(
     task_name: str,
     checkpoint: Path,
@@ -117,8 +146,8 @@ def run_play(
     from svhdesc.learn.policy import OnnxPolicy, evaluate
 
     task = find_task(task_name)
-    if frames < 1 or episodes < 0:
-        raise SvhdescError(f"--frames must be at least 1 and --episodes at least 0 (got {frames}, {episodes})")
+    _play_counts(task, frames, episodes, out)
+    check_seed(seed)
     if out is not None and out.suffix.lower() != ".png":
         raise SvhdescError(f"{out}: the strip of frames is a PNG file (name it .png)")
     with tempfile.TemporaryDirectory() as scratch:
