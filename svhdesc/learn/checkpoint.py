@@ -128,17 +128,23 @@ def restore(runner: Any, saved: dict[str, Any], path: Path, env: Any) -> dict[st
     rsl-rl's own ``load`` would unpickle the file again, code and all); its infos. An SvhdescError naming the file
     if its networks do not fit ``env``'s observations and actions."""
     infos = saved["infos"]
-    actor, critic = env.observation_sizes()
-    widths = {"actor_obs": int(actor), "critic_obs": int(critic), "actions": int(env.num_actions)}
-    for key, width in widths.items():
-        if key in infos and infos[key] != width:
-            raise SvhdescError(f"{path}: {key} {infos[key]!r} in it, the task's environment has {width}")
+    check_widths(path, infos, env)
     try:
         runner.alg.load(saved, None, strict=True)
     except (KeyError, RuntimeError, ValueError) as exc:  # state dicts of other shapes or names
         raise SvhdescError(f"{path}: its networks do not fit task {infos['task']!r} ({_first_line(exc)})") from None
     runner.current_learning_iteration = saved["iter"]
     return infos
+
+
+def check_widths(path: Path, info: dict[str, Any], env: Any) -> None:
+    """The widths ``info`` states (a checkpoint's or an ONNX actor's) are ``env``'s, or an SvhdescError naming the
+    file: a policy of the task as it was before its observations changed is refused before it acts."""
+    actor, critic = env.observation_sizes()
+    widths = {"actor_obs": int(actor), "critic_obs": int(critic), "actions": int(env.num_actions)}
+    for key, width in widths.items():
+        if key in info and info[key] != width:
+            raise SvhdescError(f"{path}: {key} {info[key]!r} in it, the task's environment has {width}")
 
 
 def _first_line(exc: Exception) -> str:
@@ -181,7 +187,8 @@ def export_onnx(runner: Any, path: Path, task: Task, env: Any) -> Path:
 
 def onnx_info(path: Path, task: Task) -> dict[str, Any]:
     """An ONNX actor's svhdesc metadata (read with onnxruntime: deployment needs no onnx or torch); an SvhdescError
-    if it is not one of ``task``."""
+    naming the file if it is not one of ``task``, or its metadata is not what svhdesc writes (a JSON object whose
+    widths are the model's input and output)."""
     from svhdesc.extras import require
 
     ort = require("onnxruntime", "running an exported policy", "policy")
@@ -194,7 +201,35 @@ def onnx_info(path: Path, task: Task) -> dict[str, Any]:
     meta = session.get_modelmeta().custom_metadata_map
     if "svhdesc" not in meta:
         raise SvhdescError(f"{path}: an ONNX model without svhdesc's metadata (not exported by svhdesc train)")
-    info = json.loads(meta["svhdesc"])
+    info = _metadata(path, meta["svhdesc"])
     if info.get("task") != task.name:
         raise SvhdescError(f"{path}: a policy of task {info.get('task')!r}, not of {task.name!r}")
+    _check_ports(path, session, info)
     return info
+
+
+def _metadata(path: Path, text: str) -> dict[str, Any]:
+    """svhdesc's metadata of an ONNX actor: a JSON object with the actor's widths as positive integers."""
+    try:
+        info = json.loads(text)
+    except ValueError as exc:  # JSONDecodeError, and the recursion of a hostile nesting
+        raise SvhdescError(f"{path}: svhdesc's metadata in it is not JSON ({exc})") from None
+    except RecursionError:
+        raise SvhdescError(f"{path}: svhdesc's metadata in it is nested too deep to read") from None
+    if not isinstance(info, dict):
+        raise SvhdescError(f"{path}: svhdesc's metadata in it is not a JSON object but {type(info).__name__}")
+    return info
+
+
+def _check_ports(path: Path, session: Any, info: dict[str, Any]) -> None:
+    """The model takes ``obs`` [batch, actor_obs] and gives ``actions`` [batch, actions], as its metadata says."""
+    ports = {"obs": (session.get_inputs(), "actor_obs"), "actions": (session.get_outputs(), "actions")}
+    for name, (found, key) in ports.items():
+        width = info.get(key)
+        if type(width) is not int or width < 1:
+            raise SvhdescError(f"{path}: svhdesc's metadata in it has no positive integer {key} (it has {width!r})")
+        port = next((p for p in found if p.name == name), None)
+        if port is None:
+            raise SvhdescError(f"{path}: the model has no {name!r} (it has {', '.join(p.name for p in found)})")
+        if len(port.shape) != 2 or port.shape[1] != width:
+            raise SvhdescError(f"{path}: the model's {name!r} has shape {port.shape}, its metadata says {key} {width}")

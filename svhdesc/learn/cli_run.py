@@ -155,6 +155,7 @@ def run_play(
         result: dict[str, Any] = {"task": task.name, "source": source, "backend": backend}
         if episodes:
             env = TaskEnv(task, min(episodes, CPU_ENVS), device="cpu", backend=backend, source=source, seed=seed)
+            policy.check_fits(env)
             figures = evaluate(env, policy, episodes)
             result.update(episodes=figures.episodes, success=figures.success, score=figures.score)
             score = f", {task.score_name} {figures.score:.3g}" if figures.score is not None else ""
@@ -164,6 +165,7 @@ def run_play(
             )
         if out is not None:
             env = TaskEnv(task, 1, device="cpu", backend=backend, source=source, seed=seed)
+            policy.check_fits(env)
             params = world_params(env)
             states, shown = record(env, policy, frames)
             draw(task, source, params, states, out)

@@ -128,14 +128,17 @@ class Observer:
         return result
 
 
-def task_simulation(task: Task, seed: int) -> Any:
-    """The ROS 2 node's Simulation: the task's scene on the main model, in the state the task's reset gives."""
+def task_simulation(task: Task, seed: int, policy: Any = None) -> Any:
+    """The ROS 2 node's Simulation: the task's scene on the main model, in the state the task's reset gives (and,
+    given an OnnxPolicy, checked to fit the task's observations and actions)."""
     from svhdesc.learn.scene import dress
     from svhdesc.sim import Simulation
 
     deployed = nominal(task)
     sim = Simulation(task.scene.variant, keyframe=None, edit=lambda spec: dress(spec, deployed.scene))
     observer = Observer(task, seed)
+    if policy is not None:
+        policy.check_fits(observer.env)
     start = observer.initial_qpos()
     if len(start) != sim.model.nq:
         raise SvhdescError(f"task {task.name}: the simulation has {sim.model.nq} positions, the task {len(start)}")
@@ -152,8 +155,8 @@ def run(task: Task, policy: Path, seed: int, duration: float) -> dict[str, Any]:
     from svhdesc.learn.policy import OnnxPolicy
     from svhdesc.ros2.node import serve
 
-    OnnxPolicy(policy, task)  # a policy of another task fails here, before anything starts
-    sim = task_simulation(task, seed)
+    actor = OnnxPolicy(policy, task)  # a policy of another task fails here, before anything starts
+    sim = task_simulation(task, seed, actor)
     objects = [shape.name for shape in task.scene.objects]
     verdict: dict[str, Any] = {}
 

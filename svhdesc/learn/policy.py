@@ -12,7 +12,7 @@ import numpy as np
 
 from svhdesc.errors import SvhdescError
 from svhdesc.extras import require
-from svhdesc.learn.checkpoint import onnx_info
+from svhdesc.learn.checkpoint import check_widths, onnx_info
 from svhdesc.learn.spec import Task
 
 
@@ -20,6 +20,7 @@ class OnnxPolicy:
     """The actor of ``svhdesc train`` as exported (``policy.onnx``): observations [n, d] in, actions [n, a] out."""
 
     def __init__(self, path: Path, task: Task) -> None:
+        self.path = path
         self.info = onnx_info(path, task)
         ort = require("onnxruntime", "running an exported policy", "rl")
         options = ort.SessionOptions()
@@ -29,8 +30,13 @@ class OnnxPolicy:
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float32)
         if obs.ndim != 2 or obs.shape[1] != self.info["actor_obs"]:
-            raise SvhdescError(f"policy expects observations of width {self.info['actor_obs']}, got {obs.shape}")
+            width = self.info["actor_obs"]
+            raise SvhdescError(f"{self.path}: a policy of observations {width} wide, given shape {obs.shape}")
         return self.session.run(["actions"], {"obs": obs})[0]
+
+    def check_fits(self, env: Any) -> None:
+        """``env``'s observations and actions are as wide as the policy's, or an SvhdescError naming the file."""
+        check_widths(self.path, self.info, env)
 
 
 @dataclass
