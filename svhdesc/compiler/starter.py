@@ -27,6 +27,7 @@ from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, link_fra
 from svhdesc.compiler.stages.inertials import cylinder_inertial, shape_of
 from svhdesc.core import exact
 from svhdesc.core.frames import pose_matrix
+from svhdesc.core.halton import halton
 from svhdesc.core.inertia import inertial_problem
 from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
@@ -42,6 +43,7 @@ from svhdesc.ir import Geometry, Inertial, Joint, Link, Robot
 ARMATURE = 0.1  # kg m^2 or kg: the channels' and coupled joints' armature
 GUESSED_MASS = 0.1  # kg: a link with geometry and no inertial in the source (init says so; weigh it)
 HOME_CLEARANCE = 0.1  # of a joint's range: how far `home` keeps clear of its stops
+GUESS_POSES = 16  # poses besides home over which an unrated joint's gravity load is the worst (its guessed drive)
 
 
 @dataclass(frozen=True)
@@ -252,7 +254,7 @@ def _rate_leaders(robot: Robot, mimics: list, quirks: dict[str, Any]) -> Robot:
     if not unrated:
         return robot
     home = {j.name: _home(j) for j in movable.values()}
-    loads = joint_loads(robot, home, _masses_for_loads(robot))
+    loads = worst_loads(robot, home, _masses_for_loads(robot), {j.name for j in unrated})
     rated = {}
     for joint in unrated:
         # the channel carries its followers too: their loads through the mimic's multiplier
@@ -268,6 +270,29 @@ def _rate_leaders(robot: Robot, mimics: list, quirks: dict[str, Any]) -> Robot:
         rated[joint.name] = replace(joint, effort=drive.effort, velocity=drive.velocity)
         quirks[joint.name] = JointDynamics(effort=drive.effort, velocity=drive.velocity)
     return replace(robot, joints=tuple(rated.get(j.name, j) for j in robot.joints))
+
+
+def worst_loads(
+    robot: Robot, home: dict[str, float], masses: dict[str, Inertial], unrated: set[str]
+) -> dict[str, Load]:
+    """The loads at ``home``; for an ``unrated`` joint, whose drive is guessed from its load, the gravity load is
+    the worst of home, the stops and GUESS_POSES poses spread over the ranges: at home an arm may hang down, load 0,
+    and a drive sized there drops it as soon as it moves (a joint fell 2.5 rad in validate's gravity_hold)."""
+    loads = joint_loads(robot, home, masses)
+    if not unrated:
+        return loads
+    movable = [j for j in robot.joints if j.movable]
+    spans = [(-math.pi, math.pi) if j.type == "continuous" else (j.lower, j.upper) for j in movable]
+    worst = {name: abs(loads[name].gravity) for name in unrated if name in loads}
+    # every joint at its lower stop, at its upper stop, then a Halton sequence over the ranges
+    points = [np.zeros(len(movable)), np.ones(len(movable))]
+    points += [halton(index, len(movable)) for index in range(1, GUESS_POSES + 1)]
+    for point in points:
+        pose = {j.name: lo + (hi - lo) * float(x) for j, (lo, hi), x in zip(movable, spans, point)}
+        sampled = joint_loads(robot, pose, masses)
+        for name in worst:
+            worst[name] = max(worst[name], abs(sampled[name].gravity))
+    return {name: replace(load, gravity=worst.get(name, load.gravity)) for name, load in loads.items()}
 
 
 def _masses_for_loads(robot: Robot) -> dict[str, Inertial]:
@@ -312,7 +337,8 @@ def _drives(
 ) -> dict[str, Drive]:
     """Each arm joint's drive at ``home``, the kps held within what ``timestep`` integrates with the channels'."""
     masses = _masses_for_loads(robot)
-    loads: dict[str, Load] = joint_loads(robot, home, masses)
+    unrated = {j.name for j in arm if min(j.effort, j.velocity) <= 0}
+    loads: dict[str, Load] = worst_loads(robot, home, masses, unrated)
     drives = {j.name: size_drive(j.type, j.effort, j.velocity, loads.get(j.name)) for j in arm}
     names, matrix = mass_matrix(robot, home, masses)
     mobility = dict(zip(names, inverse_diagonal(matrix)))
