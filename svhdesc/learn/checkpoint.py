@@ -14,6 +14,7 @@ import json
 import math
 import os
 import re
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -61,6 +62,33 @@ def replaced(path: Path) -> Iterator[str]:
             os.unlink(temporary)
 
 
+def regular_file(path: Path, what: str) -> None:
+    """``path`` is a regular file (a symbolic link to one counts), or an SvhdescError saying what it is instead: a
+    FIFO would block the read forever, a device never end it."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        dangling = " (a symbolic link to a missing file)" if path.is_symlink() else ""
+        raise SvhdescError(f"{path}: no such {what}{dangling}") from None
+    except OSError as exc:  # a loop of links, a folder on the way that is not one, no permission
+        raise SvhdescError(f"{path}: cannot be read as a {what} ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(mode):
+        raise SvhdescError(f"{path}: not a regular file but {file_kind(mode)}, so not a {what}")
+
+
+def file_kind(mode: int) -> str:
+    """What a path is, in words (a file, a folder, a FIFO, ...)."""
+    kinds = (
+        (stat.S_ISREG, "a file"),
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISSOCK, "a socket"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+    )
+    return next((name for test, name in kinds if test(mode)), "of an unknown kind")
+
+
 def load_checkpoint(path: Path, task: Task) -> dict[str, Any]:
     """The checkpoint as rsl-rl saved it (the models' and the optimizer's state, ``iter``, svhdesc's ``infos``),
     loaded with ``weights_only=True``: tensors and plain containers only, so a crafted pickle runs no code (a
@@ -71,8 +99,7 @@ def load_checkpoint(path: Path, task: Task) -> dict[str, Any]:
 
     import torch
 
-    if not path.is_file():
-        raise SvhdescError(f"{path}: no such checkpoint")
+    regular_file(path, "checkpoint")
     try:
         with warnings.catch_warnings():  # torch's note on the pickle protocol is not the user's business
             warnings.simplefilter("ignore")
@@ -192,8 +219,7 @@ def onnx_info(path: Path, task: Task) -> dict[str, Any]:
     from svhdesc.extras import require
 
     ort = require("onnxruntime", "running an exported policy", "policy")
-    if not path.is_file():
-        raise SvhdescError(f"{path}: no such policy file")
+    regular_file(path, "policy file")
     try:
         session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime's own error kinds for a file that is not a model

@@ -128,6 +128,20 @@ def _play_counts(task: Task, frames: int, episodes: int, out: Path | None) -> No
         raise SvhdescError(f"--episodes must be at least 1 (0 only with --out: the strip alone), not {episodes}")
 
 
+def _picture_path(out: Path) -> None:
+    """Where play's strip goes: a .png that is a regular file or nothing yet, in a folder or where one can be made;
+    checked before any episode runs (a folder there failed after the episodes, blaming OpenGL)."""
+    from svhdesc.learn.checkpoint import file_kind
+
+    if out.suffix.lower() != ".png":
+        raise SvhdescError(f"{out}: the strip of frames is a PNG file (name it .png)")
+    if out.exists() and not out.is_file():
+        raise SvhdescError(f"{out}: is {file_kind(out.stat().st_mode)}, not a file the strip can be written to")
+    above = next((p for p in out.parents if p.exists()), None)
+    if above is not None and not above.is_dir():
+        raise SvhdescError(f"{out}: {above} is {file_kind(above.stat().st_mode)}, not a folder to write it in")
+
+
 def run_play(
     task_name: str,
     checkpoint: Path,
@@ -148,8 +162,8 @@ def run_play(
     task = find_task(task_name)
     _play_counts(task, frames, episodes, out)
     check_seed(seed)
-    if out is not None and out.suffix.lower() != ".png":
-        raise SvhdescError(f"{out}: the strip of frames is a PNG file (name it .png)")
+    if out is not None:
+        _picture_path(out)
     with tempfile.TemporaryDirectory() as scratch:
         policy = OnnxPolicy(policy_file(task, checkpoint, Path(scratch)), task)
         result: dict[str, Any] = {"task": task.name, "source": source, "backend": backend}
