@@ -297,11 +297,7 @@ def _servos(spec, root: etree._Element) -> dict[str, float]:  # type: ignore[no-
     import mujoco
 
     model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    full = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, full)  # MuJoCo 4's signature (model, data, dst)
-    diagonal = np.diag(full)
+    mobility = _mobility(model)
     efforts: dict[str, float] = {}
     for joint in root.findall("joint"):
         limit = joint.find("limit")
@@ -318,9 +314,10 @@ def _servos(spec, root: etree._Element) -> dict[str, float]:  # type: ignore[no-
         index = model.joint(name).id
         lo, hi = model.jnt_range[index] if model.jnt_limited[index] else (-np.pi, np.pi)
         error = SATURATION_ERROR * (1.0 if joint.get("type") != "prismatic" else max(hi - lo, 1e-3))
-        # Stable at the timestep: the servo's frequency well below the integrator's limit for this joint's inertia.
-        inertia = diagonal[model.jnt_dofadr[index]] + model.dof_armature[model.jnt_dofadr[index]]
-        kp = min(effort / error, inertia * (0.2 / model.opt.timestep) ** 2)
+        # Stable at the timestep: kp (M^-1)_ii dt^2 well below the integrator's limit (omega dt = 0.2), with the
+        # joint's mobility (M^-1)_ii, not 1/M_ii: in a chain the other joints' give way makes it far larger (a
+        # human's shoulder sized on 1/M_ii diverged under Menagerie's random controls).
+        kp = min(effort / error, (0.2 / model.opt.timestep) ** 2 / mobility[model.jnt_dofadr[index]])
         servo = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         servo.set_to_position(kp=kp, dampratio=1.0)
         servo.ctrllimited = 1
@@ -328,6 +325,29 @@ def _servos(spec, root: etree._Element) -> dict[str, float]:  # type: ignore[no-
         servo.forcelimited = 1
         servo.forcerange = [-effort, effort]
     return efforts
+
+
+def _mobility(model) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Each dof's (M^-1)_ii, the largest over the rest pose and 8 poses spread over the ranges."""
+    import mujoco
+
+    from svhdesc.validate.poses import set_pose
+
+    data = mujoco.MjData(model)
+    worst = np.zeros(model.nv)
+    for sample in range(9):
+        if sample:
+            set_pose(model, data, sample)
+        mujoco.mj_forward(model, data)
+        full = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, full)  # MuJoCo 4's signature (model, data, dst)
+        full[np.diag_indices(model.nv)] += model.dof_armature
+        try:
+            inverse = np.diag(np.linalg.inv(full))
+        except np.linalg.LinAlgError:
+            inverse = 1.0 / np.maximum(np.diag(full), 1e-12)
+        worst = np.maximum(worst, inverse)
+    return worst
 
 
 def mjcf_compiled(model, where: Callable[[str, str], tuple[str, int | None]]) -> Compiled:  # type: ignore[no-untyped-def]
