@@ -53,6 +53,7 @@ def save_checkpoint(runner: Any, out: Path, task: Task, env: Any, steps: int) ->
 def replaced(path: Path) -> Iterator[str]:
     """A temporary file beside ``path`` to write; renamed onto ``path`` if the block ends well, else removed."""
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    os.fchmod(handle, 0o666 & ~_umask())  # mkstemp's 0600 would make a shared run folder's files the owner's alone
     os.close(handle)
     try:
         yield temporary
@@ -60,6 +61,13 @@ def replaced(path: Path) -> Iterator[str]:
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it, the one portable way, and set back at once)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def regular_file(path: Path, what: str) -> None:
@@ -116,6 +124,9 @@ def load_checkpoint(path: Path, task: Task) -> dict[str, Any]:
         raise SvhdescError(f"{path}: not an svhdesc checkpoint (no task in it)")
     if infos["task"] != task.name:
         raise SvhdescError(f"{path}: a checkpoint of task {infos['task']!r}, not of {task.name!r}")
+    steps = infos.get("env_steps", 0)
+    if type(steps) is not int or steps < 0:
+        raise SvhdescError(f"{path}: env_steps {steps!r} in it is not a count")
     missing = [key for key in MODELS if not isinstance(saved.get(key), dict)]
     if missing or not isinstance(saved.get("iter"), int):
         raise SvhdescError(f"{path}: not an svhdesc checkpoint (no {(missing or ['iter'])[0]} in it)")

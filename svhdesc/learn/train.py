@@ -88,7 +88,17 @@ def make_runner(env: Any, cfg: dict[str, Any], log_dir: Path | None) -> Any:
                 dist.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=self.gpu_world_size)
 
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints both models' layers
-        return Runner(env, cfg, log_dir=str(log_dir) if log_dir is not None else None, device=str(env.device))
+        runner = Runner(env, cfg, log_dir=str(log_dir) if log_dir is not None else None, device=str(env.device))
+    # rsl-rl's code-state store writes git/<repo>.diff, the status and diff of whichever repository holds the
+    # installed rsl_rl (an unrelated one's uncommitted work), into every run folder: a run folder holds svhdesc's
+    # own state only.
+    runner.logger._store_code_state = _no_code_state
+    return runner
+
+
+def _no_code_state() -> list[str]:
+    """No files of the code's state to store or upload."""
+    return []
 
 
 @dataclass(frozen=True)
@@ -158,10 +168,11 @@ class Session:
 
         runner = self.runner
         if resume is not None:
-            restore(runner, load_checkpoint(resume, self.task), resume, self.env)  # refuses another task's
+            infos = restore(runner, load_checkpoint(resume, self.task), resume, self.env)  # refuses another task's
             runner.current_learning_iteration += 1
+            self.steps = infos.get("env_steps", 0)  # the count goes on, as the iterations' does
         if self.rank == 0:
-            with contextlib.redirect_stdout(io.StringIO()):  # "Storing git diff ...": rsl-rl's, not a progress line
+            with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl's console lines are not progress lines
                 runner.logger.init_logging_writer()
         runner.alg.train_mode()
         if runner.is_distributed:
