@@ -81,6 +81,9 @@ def test_files_that_are_not_svhdesc_checkpoints(tmp_path: Path) -> None:
     weightless = folder / "model_1.pt"
     torch.save({"iter": 1, "infos": {"task": "svh_reach"}}, weightless)
     _refused_everywhere(folder, weightless, "no actor_state_dict in it")
+    for steps in (-5, "many", 2.5):  # a resumed run's count goes on from it
+        torch.save({"iter": 1, "infos": {"task": "svh_reach", "env_steps": steps}}, weightless)
+        _refused_everywhere(folder, weightless, f"env_steps {steps!r} in it is not a count")
 
 
 def test_non_finite_weights_are_refused(tmp_path: Path, reach_checkpoint: dict[str, Any]) -> None:
