@@ -133,7 +133,8 @@ def _prepared_urdf(source: UrdfSource, notes: list[str]) -> etree._Element:
                 continue
             path = resolve_mesh(mesh.get("filename", ""), source)
             try:
-                mesh.set("filename", str(_mujoco_mesh(path)) if path is not None else "")
+                # is_file: a regular file only (a FIFO would block the read; the meshes check names it)
+                mesh.set("filename", str(_mujoco_mesh(path)) if path is not None and path.is_file() else "")
             except (OSError, ValueError, CompileFailed):
                 mesh.set("filename", "")
             if not mesh.get("filename"):

@@ -5,6 +5,7 @@ Each file gets a FileReport; a file that cannot be read or parsed at all is one 
 
 from __future__ import annotations
 
+import os
 import re
 import stat
 import sys
@@ -296,12 +297,39 @@ def _mjcf_where(path: Path, files: list[tuple[Path, etree._Element]]):  # type: 
     return where
 
 
+def _irregular_assets(files: list[tuple[Path, etree._Element]]) -> list[Finding]:
+    """Asset files (a mesh, texture, height field, skin) that exist and are not regular files, each a finding at
+    its element: looked up beside the file that names it and in its compiler's meshdir, texturedir and assetdir."""
+    found = []
+    for file, root in files:
+        folders = [file.parent]
+        for compiler in root.iter("compiler"):
+            keys = ("assetdir", "meshdir", "texturedir")
+            folders += [file.parent / compiler.get(k, "") for k in keys if compiler.get(k)]
+        for element in root.iter():
+            name = element.get("file") if isinstance(element.tag, str) else None  # an <include> too
+            for candidate in (folder / name for folder in folders) if name else ():
+                if os.path.lexists(candidate) and not candidate.is_file():
+                    what = "a folder" if candidate.is_dir() else "not a regular file"
+                    message = f"<{element.tag} file=\"{name}\">: {candidate} is {what}"
+                    found.append(Finding("mjcf_compile", str(file), element.sourceline, message))
+                    break
+    return found
+
+
 def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[CheckResult]:
     import mujoco
 
     from svhdesc.validate.compile_file import quiet_mujoco
 
     files = _mjcf_files(path)
+    irregular = _irregular_assets(files)
+    if irregular:  # MuJoCo would open a FIFO and wait forever: named, and nothing compiled
+        rest = [
+            CheckResult(n, "skipped", reason="the model is not compiled")
+            for n in (*STATIC_MJCF_CHECKS[1:], *(FULL_CHECKS if tier == "full" else ()))
+        ]
+        return [CheckResult("mjcf_compile", "fail", irregular), *rest]
     try:
         with quiet_mujoco() as said:  # MuJoCo's compiler warnings (deprecated attributes) go into the figure
             model = mujoco.MjModel.from_xml_path(str(path))
