@@ -530,7 +530,8 @@ def validate_command(
 
 
 def _pairs(variants: tuple[str, ...], urdf_path: Path | None, mjcf_path: Path | None) -> list[tuple[Path, Path]]:
-    """The --urdf/--mjcf pair, checked; [] without them."""
+    """The --urdf/--mjcf pair, checked; [] without them. A URDF number that is not finite is refused at its
+    file:line, as MuJoCo refuses the MJCF's (it would otherwise reach the checks as a nan)."""
     if (urdf_path is None) != (mjcf_path is None):
         raise SvhdescError("--urdf and --mjcf go together")
     if urdf_path is None or mjcf_path is None:
@@ -540,6 +541,11 @@ def _pairs(variants: tuple[str, ...], urdf_path: Path | None, mjcf_path: Path | 
     for path in (urdf_path, mjcf_path):
         if not path.is_file():
             raise SvhdescError(f"{path}: no such file")
+    from svhdesc.validate.files import read_xml
+    from svhdesc.validate.static_urdf import UrdfSource, check_numbers
+
+    for finding in check_numbers(UrdfSource(urdf_path, read_xml(urdf_path), {})):
+        raise SvhdescError(f"{finding.where()}: {finding.message}")
     return [(urdf_path, mjcf_path)]
 
 
