@@ -15,6 +15,7 @@ from svhdesc.errors import SvhdescError
 EXTRA_OF: dict[str, tuple[str, str]] = {
     "xacro": ("xacro", "build"),
     "trimesh": ("trimesh", "build"),
+    "networkx": ("networkx", "build"),
     "collada": ("pycollada", "build"),
     "scipy": ("scipy", "build"),
     "coacd": ("coacd", "build"),
