@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import resource
 import shutil
 import subprocess
 import tempfile
@@ -20,10 +21,27 @@ URDFDOM_INSTALL = "apt-get install liburdfdom-tools"
 # cmdsdformat12.rb) and libsdformat12; ruby comes with ignition-tools.
 SDFORMAT_INSTALL = "apt-get install ignition-tools libsdformat-dev"
 TIMEOUT = 120  # s per external command
+# Address space an external tool may take: `ign sdf` on a 10,000-link chain grew past 8 GB in 35 s.
+MEMORY_LIMIT = 4 << 30
+
+
+def _limit_memory() -> None:  # in the child, before it starts the tool
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
 
 
 def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT, check=False)
+    """The tool's result; over TIMEOUT or MEMORY_LIMIT a failed one whose stderr names the limit."""
+    try:
+        result = subprocess.run(
+            args, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT, check=False, preexec_fn=_limit_memory
+        )
+    except subprocess.TimeoutExpired:
+        return subprocess.CompletedProcess(args, -9, "", f"stopped at the time limit of {TIMEOUT} s")
+    if result.returncode != 0 and any(
+        word in result.stderr for word in ("bad_alloc", "MemoryError", "NoMemoryError", "Cannot allocate memory")
+    ):
+        result.stderr += f"\nout of memory at the limit of {MEMORY_LIMIT >> 30} GiB of address space"
+    return result
 
 
 def _tail(text: str, lines: int = 3) -> str:
