@@ -199,7 +199,9 @@ def _positive_definite(inertia: etree._Element) -> None:
         inertia.set(key, repr(float(fixed[i, j])))
 
 
-def compile_urdf(source: UrdfSource) -> Compiled:
+def compile_urdf(source: UrdfSource, pose: dict[str, float] | None = None) -> Compiled:
+    """The URDF compiled by MuJoCo's importer with its servos; with ``pose`` (the settings' rest pose), a keyframe
+    'rest' there, the servos aimed at it, which the checks then take as the pose the file states."""
     import mujoco
 
     notes: list[str] = []
@@ -231,6 +233,9 @@ def compile_urdf(source: UrdfSource) -> Compiled:
         overlapping = always_touching(model, OVERLAP_SAMPLES)
         if overlapping:
             _exclude(spec, overlapping)
+            model = spec.compile()
+        if pose:
+            _add_rest(spec, model, pose, source.path)
             model = spec.compile()
     notes += [f"MuJoCo: {' '.join(line.split())}" for line in said]
 
@@ -271,6 +276,20 @@ def quiet_mujoco():  # type: ignore[no-untyped-def]
         yield said
     finally:
         mujoco.set_mju_user_warning(previous)
+
+
+def _add_rest(spec, model, pose: dict[str, float], path: Path) -> None:  # type: ignore[no-untyped-def]
+    qpos = model.qpos0.copy()
+    for name, value in pose.items():
+        try:
+            joint = model.joint(name)
+        except KeyError:
+            raise SvhdescError(
+                f"{path}: the settings' pose names joint '{name}', which the model does not have"
+            ) from None
+        qpos[model.jnt_qposadr[joint.id]] = value
+    ctrl = [qpos[model.jnt_qposadr[model.actuator_trnid[i, 0]]] for i in range(model.nu)]
+    spec.add_key(name="rest", qpos=qpos.tolist(), ctrl=ctrl)
 
 
 def _exclude(spec, pairs) -> None:  # type: ignore[no-untyped-def]

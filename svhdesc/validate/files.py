@@ -201,6 +201,7 @@ def validate_file(
     walked: bool = False,
     xacro_args: dict[str, str] | None = None,
     tier: str = "static",
+    pose: dict[str, float] | None = None,
 ) -> FileReport:
     """One file's report. A file given by name that cannot be parsed (or a xacro that does not expand) is an
     SvhdescError; one found in a folder's walk is a report whose xml check fails, so that one broken file does not
@@ -224,7 +225,7 @@ def validate_file(
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
         if tier == "full" and selected & {"mujoco_compile", *FULL_CHECKS}:
-            report.checks.extend(_full_urdf(source))
+            report.checks.extend(_full_urdf(source, pose or {}))
     elif root.tag == "mujoco":
         report = FileReport(str(path), "mjcf")
         report.checks.append(_result("xml", tolerated))
@@ -261,11 +262,11 @@ def _locate(files: list[tuple[Path, etree._Element]], tag: str, name: str) -> tu
     return str(files[0][0]) if files else "", None
 
 
-def _full_urdf(source: UrdfSource) -> list[CheckResult]:
+def _full_urdf(source: UrdfSource, pose: dict[str, float]) -> list[CheckResult]:
     from svhdesc.validate.compile_file import CompileFailed, compile_urdf
 
     try:
-        compiled = compile_urdf(source)
+        compiled = compile_urdf(source, pose)
     except CompileFailed as exc:
         where = exc.file or str(source.path)
         finding = Finding("mujoco_compile", where, exc.line, f"MuJoCo's URDF importer refuses it: {exc}")

@@ -37,6 +37,7 @@ class ModelRun:
     selected: frozenset[str]
     ignored: Mapping[str, str]  # check -> the reason the settings give
     tier: str = "full"
+    pose: Mapping[str, float] = field(default_factory=dict)  # a URDF's rest pose, from the settings
 
     def checks(self) -> list[str]:
         """The checks this run reports, in order, known before it runs (the pytest plugin's items)."""
@@ -44,7 +45,9 @@ class ModelRun:
 
     def run(self) -> FileReport:
         selected = set(self.selected) - set(self.ignored)
-        report = validate_file(self.path, selected, dict(self.packages), self.walked, dict(self.args), self.tier)
+        report = validate_file(
+            self.path, selected, dict(self.packages), self.walked, dict(self.args), self.tier, dict(self.pose)
+        )
         report.path = self.label
         for check, reason in self.ignored.items():
             if check in self.selected:
@@ -87,6 +90,7 @@ def model_runs(
                     frozenset(selected),
                     {c: r for c, r in own.ignore.items() if c not in command_line.select},
                     command_line.tier or settings.tier or "full",
+                    own.pose,
                 )
             )
     return runs

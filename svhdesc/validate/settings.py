@@ -8,6 +8,7 @@
 
     [tool.svhdesc.model."urdf/arm.urdf.xacro"]            # one model (a glob), its own settings on top
     args = { side = ["left", "right"], gripper = "true" }  # a list: one model per choice, as pal's urdf_test
+    pose = { shoulder = 0.5, elbow = -1.2 }              # a URDF's rest pose: settle and contacts are judged there
     ignore = { inertials = "the base is welded to the world" }
 
 An svhdesc.yaml beside a model may add a ``validate:`` section with the same keys as a model's table (args,
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import fnmatch
 import itertools
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -30,7 +32,7 @@ from svhdesc.errors import SvhdescError
 
 _TOP_KEYS = {"models", "packages", "select", "ignore", "model", "tier"}
 TIERS = ("static", "full")
-_MODEL_KEYS = {"args", "packages", "select", "ignore"}
+_MODEL_KEYS = {"args", "packages", "select", "ignore", "pose"}
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,8 @@ class ModelSettings:
     packages: Mapping[str, Path] = field(default_factory=dict)
     select: tuple[str, ...] = ()
     ignore: Mapping[str, str] = field(default_factory=dict)
+    # a URDF's rest pose (joint = position): the pose it states, where the full tier settles and judges contacts
+    pose: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -86,6 +90,7 @@ def _merged(under: ModelSettings, over: ModelSettings) -> ModelSettings:
         {**under.packages, **over.packages},
         over.select or under.select,
         {**under.ignore, **over.ignore},
+        {**under.pose, **over.pose},
     )
 
 
@@ -223,7 +228,18 @@ def _model_settings(file: Path, table: dict[str, Any], section: str) -> ModelSet
         _packages(file, table.get("packages", {}), section),
         tuple(select),
         ignore,
+        _pose(file, table.get("pose", {}), section),
     )
+
+
+def _pose(file: Path, value: Any, section: str) -> dict[str, float]:
+    numbers = isinstance(value, dict) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value.values()
+    )
+    if not numbers:
+        where = _where(file, "pose", section)
+        raise SvhdescError(f"{where}: 'pose' in [{section}] must be a table of JOINT = a finite position")
+    return {str(k): float(v) for k, v in value.items()}
 
 
 def _args(file: Path, value: Any, section: str) -> dict[str, tuple[str, ...]]:

@@ -185,3 +185,23 @@ def test_jobs_spread_the_models_and_change_nothing(tmp_path: Path) -> None:
     assert "gravity_hold" in one.stdout and "2 model(s)" in one.stdout
     refused = run_cli("validate", str(tmp_path), "-j", "0", in_process=True)
     assert refused.returncode == 2 and refused.stderr.startswith("error:") and "--jobs" in refused.stderr
+
+
+PANDA_HOME = {"panda_joint2": -0.785, "panda_joint4": -2.356, "panda_joint6": 1.571, "panda_joint7": 0.785}
+
+
+def test_a_urdf_rest_pose_from_the_settings_is_where_contacts_are_judged(tmp_path: Path) -> None:
+    """A URDF states no pose; [tool.svhdesc] pose = {...} gives one (a keyframe 'rest' of the compiled model), where
+    settle starts and rest_contacts judges: the Panda's home is clear, its zero pose folds the hand onto the
+    forearm (seeded fault: the pose not passed to compile_urdf: rest_contacts is skipped in both)."""
+    path = _write(_panda(), tmp_path / "panda.urdf")
+    home = validate_file(path, ALL, PACKAGES, tier="full", pose=PANDA_HOME)
+    statuses = {c.name: c.status for c in home.checks}
+    assert statuses["rest_contacts"] == "pass" and statuses["settle"] == "pass", home.checks
+    folded = validate_file(path, ALL, PACKAGES, tier="full", pose={"panda_joint4": -0.07, "panda_joint6": 0.0})
+    (finding, *_) = _failures(folded)["rest_contacts"]
+    assert "'panda_hand' and 'panda_link5'" in finding.message and "keyframe 'rest'" in finding.message
+    assert finding.line == etree.parse(str(path)).find("link[@name='panda_link5']").sourceline
+    package = f"meshes={PACKAGES['meshes']}"
+    unposed = run_cli("validate", str(path), "--package", package, in_process=True)  # no pose: skipped, says why
+    assert unposed.returncode == 0 and "rest_contacts" not in unposed.stdout, unposed.stdout

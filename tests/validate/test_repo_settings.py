@@ -71,6 +71,7 @@ def test_a_fault_in_one_argument_choice_is_found_in_that_one(repo: Path) -> None
         ("colour = 1", "unknown key 'colour'"),
         ('packages = { arm = "nowhere" }', "folder nowhere does not exist"),
         ("args = { side = }", "not valid TOML"),
+        ('pose = { left_shoulder = "up" }', "'pose' in [tool.svhdesc.model."),
     ],
 )
 def test_a_malformed_table_is_one_error_at_its_line(repo: Path, extra: str, words: str) -> None:
@@ -104,3 +105,14 @@ def test_an_svhdesc_yaml_beside_the_model_adds_its_validate_section(repo: Path) 
     beside.write_text("validate:\n  ignore:\n    joint_limits: ok\n  colour: 1\n")
     code, _, err = _validate()
     assert code == 2 and f"{beside}:4: unknown key 'colour'" in err, err
+
+
+def test_a_pose_naming_no_joint_of_the_model_is_one_error(repo: Path) -> None:
+    (repo / "pyproject.toml").write_text(PYPROJECT.format(extra="pose = { elbow = 0.5 }"))
+    code, out, err = _validate()
+    assert code == 2 and out == "" and "pose names joint 'elbow', which the model does not have" in err, err
+    (repo / "pyproject.toml").write_text(
+        PYPROJECT.format(extra="").replace('side = ["left", "right"]', 'side = "left"')
+    )
+    (repo / "urdf" / "svhdesc.yaml").write_text("validate:\n  pose: {left_shoulder: 0.5}\n")
+    assert _validate()[0] == 0  # a joint it has: the pose is taken (the arm has no collisions to judge)
