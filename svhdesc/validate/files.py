@@ -19,6 +19,7 @@ from svhdesc.core.source.packages import package_map
 from svhdesc.errors import SvhdescError
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
 from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
+from svhdesc.validate.poses import is_position_servo
 from svhdesc.validate.static_urdf import RULES, UrdfSource
 
 STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
@@ -357,19 +358,12 @@ def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[C
 
 def _actuator_ranges(model, files) -> CheckResult:  # type: ignore[no-untyped-def]
     """A position actuator's ctrlrange within its joint's range: a target beyond the stop only pushes on it."""
-    import mujoco
 
     findings = []
     for i in range(model.nu):
         actuator = model.actuator(i)
-        is_position = (
-            model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE
-            and model.actuator_gainprm[i, 0] == -model.actuator_biasprm[i, 1]
-        )
         joint = int(model.actuator_trnid[i, 0])
-        if not (
-            is_position and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT and model.actuator_ctrllimited[i]
-        ):
+        if not (is_position_servo(model, i) and model.actuator_ctrllimited[i]):
             continue
         if not model.jnt_limited[joint]:
             continue

@@ -26,7 +26,7 @@ import numpy as np
 
 from svhdesc.validate.compile_file import Compiled, quiet_mujoco
 from svhdesc.validate.findings import CheckResult, Finding
-from svhdesc.validate.poses import contact_pairs, rest_state, set_pose
+from svhdesc.validate.poses import contact_pairs, is_position_servo, rest_state, set_pose
 
 FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold")
 MODEL_TEST_SECONDS = 1.0  # Menagerie's _MAX_SIM_TIME
@@ -195,10 +195,7 @@ def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
     servos = [  # the leaders' servos sweep; every other joint is held where it rests
         i
         for i in range(model.nu)
-        if model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE
-        and model.actuator_ctrllimited[i]
-        and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT
-        and int(model.actuator_trnid[i, 0]) in leaders
+        if is_position_servo(model, i) and model.actuator_ctrllimited[i] and int(model.actuator_trnid[i, 0]) in leaders
     ]
     lo, hi = model.actuator_ctrlrange[servos, 0], model.actuator_ctrlrange[servos, 1]
     # From where each servo rests to its upper end, its lower end and back, smoothly: no step in the target.

@@ -36,10 +36,22 @@ def rest_state(model):  # type: ignore[no-untyped-def]
     addresses = model.jnt_qposadr[joints]
     data.qpos[addresses] = np.clip(data.qpos[addresses], lo, hi)
     for i in range(model.nu):
-        is_position = model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE and model.actuator_gainprm[i, 0] > 0
-        if is_position and model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT:
+        if is_position_servo(model, i):
             data.ctrl[i] = data.qpos[model.jnt_qposadr[model.actuator_trnid[i, 0]]]
     return data, "the rest pose"
+
+
+def is_position_servo(model, actuator: int) -> bool:  # type: ignore[no-untyped-def]
+    """A position servo on one joint: force kp (ctrl - q) - kv qdot, as <position> and init's servos write it."""
+    import mujoco
+
+    gain = model.actuator_gainprm[actuator, 0]
+    return bool(
+        model.actuator_trntype[actuator] == mujoco.mjtTrn.mjTRN_JOINT
+        and model.actuator_biastype[actuator] == mujoco.mjtBias.mjBIAS_AFFINE
+        and gain > 0
+        and gain == -model.actuator_biasprm[actuator, 1]
+    )
 
 
 def contact_pairs(model, data) -> dict[tuple[str, str], float]:  # type: ignore[no-untyped-def]
