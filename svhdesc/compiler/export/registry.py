@@ -146,6 +146,11 @@ OUTPUTS: tuple[Output, ...] = (
     Output("ros2/mujoco/{robot}.xml", lambda b: ros2_control.export_mujoco_model(b.ros2)),
     Output("ros2/mujoco/scene.xml", lambda b: ros2_control.export_mujoco_scene(b.ros2)),
     Output("ros2/config/ros2_controllers.yaml", lambda b: ros2.export_controllers(b.ros2)),
+    Output(
+        "ros2/config/forward_position_controller.yaml",
+        lambda b: ros2.export_forward_fragment(b.ros2),
+        lambda robot: bool(ros2.forward_controllers(robot)),
+    ),
     Output("ros2/launch/sim.launch.py", lambda b: ros2_launch.export_sim_launch(b.ros2)),
     Output("ros2/launch/svhdesc.launch.py", lambda b: ros2_launch.export_svhdesc_launch(b.ros2)),
     Output(

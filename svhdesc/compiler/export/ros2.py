@@ -154,12 +154,29 @@ def export_controllers(robot: Robot) -> bytes:
     for name, joints, kind in controllers(robot):
         manager[name] = {"type": JTC}
         document[name] = {"ros__parameters": _jtc(joints, kind)}
-    for name, joints in forward_controllers(robot):  # ur_controllers.yaml gives it `joints` only
-        manager[name] = {"type": ROS2_FORWARD_TYPE}
-        document[name] = {"ros__parameters": {"joints": joints}}
+    _add_forward(manager, document, robot)
     for name, joints in velocity_controllers(robot):  # over the joints' velocity command interfaces
         manager[name] = {"type": VELOCITY_SERVO_TYPE}
         document[name] = {"ros__parameters": {"joints": joints}}
+    return dump_yaml(document)
+
+
+def _add_forward(manager: dict, document: dict, robot: Robot) -> None:
+    """Each forward position controller: its type under the controller manager, its ``joints`` (the command's
+    order) under its own name; ur_controllers.yaml gives it ``joints`` only."""
+    for name, joints in forward_controllers(robot):
+        manager[name] = {"type": ROS2_FORWARD_TYPE}
+        document[name] = {"ros__parameters": {"joints": joints}}
+
+
+def export_forward_fragment(robot: Robot) -> bytes:
+    """The forward position controllers alone, as a parameters file to give the controller manager beside the
+    driver's own (SCHUNK's cfg/schunk_svh_driver.yaml has none): ros2_control_node merges the files it is given,
+    so ``svhdesc deploy --via forward``'s controllers exist on the real hand without editing SCHUNK's file. No
+    ``update_rate``: the driver's stays."""
+    manager: dict = {}
+    document: dict = {"controller_manager": {"ros__parameters": manager}}
+    _add_forward(manager, document, robot)
     return dump_yaml(document)
 
 
