@@ -763,11 +763,20 @@ def play_command(
 @click.option("--policy", type=click.Path(path_type=Path), required=True, help="policy.onnx from svhdesc train.")
 @click.option("--duration", type=float, default=None, help="Simulated seconds the policy acts (default: one episode).")
 @click.option("--seed", type=int, default=1, show_default=True, help="Seed of the task's reset (the start state).")
+@click.option(
+    "--via",
+    type=click.Choice(["trajectory", "forward"]),
+    default="trajectory",
+    show_default=True,
+    help="trajectory: a point per control period on /<controller>/joint_trajectory, nothing switched (SCHUNK's "
+    "shipped configuration); forward: switch to the forward position controllers, /<controller>/commands.",
+)
 @_friendly
-def deploy_command(task_name: str, policy: Path, duration: float | None, seed: int) -> None:
+def deploy_command(task_name: str, policy: Path, duration: float | None, seed: int, via: str) -> None:
     """Run TASK's policy through the ROS 2 node as on the real hand (needs .venv-ros2, svhdesc[policy]): the
     simulation serves the drivers' interfaces and a tracker in real time, as the hand runs; a policy node drives the
-    forward position controllers. Prints the policy node's measure of the episode as one JSON line."""
+    trajectory controllers (or, --via forward, the forward position controllers). Prints the policy node's measure
+    of the episode as one JSON line."""
     import json
 
     from svhdesc.learn.cli_run import check_seed, positive_seconds
@@ -778,7 +787,7 @@ def deploy_command(task_name: str, policy: Path, duration: float | None, seed: i
     positive_seconds("--duration", duration)
     check_seed(seed)
     seconds = duration if duration is not None else chosen.episode_s
-    _say(json.dumps(run(chosen, policy, seed, seconds), sort_keys=True))
+    _say(json.dumps(run(chosen, policy, seed, seconds, via), sort_keys=True))
 
 
 @main.command("render")

@@ -4,11 +4,13 @@ Two processes, as on the robot:
 - the simulation (``svhdesc.ros2.node.serve``) on the task's scene built from the main model (noslip,
   multi-contact), started in the state the task's reset gives for ``--seed``, publishing each object's pose as a
   tracker would (``/tracked/<object>``, geometry_msgs/PoseStamped) beside the drivers' interfaces;
-- the policy node (``python -m svhdesc.learn.ros2_policy``, rclpy + onnxruntime): it swaps the forward position
-  controllers in for the trajectory controllers (one STRICT ``switch_controller``, then ``list_controllers`` to
-  check), and at the task's control rate (simulated time) builds the actor's observation from ``/joint_states``
-  and the tracker with the task's own terms, runs the ONNX actor and publishes the servo targets on
-  ``/<forward controller>/commands`` (std_msgs/Float64MultiArray, the controller's joint order).
+- the policy node (``python -m svhdesc.learn.ros2_policy``, rclpy + onnxruntime): at the task's control rate
+  (simulated time) it builds the actor's observation from ``/joint_states`` and the tracker with the task's own
+  terms, runs the ONNX actor and sends the servo targets ``--via``:
+  ``trajectory`` (default) one JointTrajectory point per control period on ``/<controller>/joint_trajectory`` of
+  the active trajectory controllers, nothing switched (the driver's configuration as SCHUNK ships it), or
+  ``forward`` on ``/<forward controller>/commands`` (std_msgs/Float64MultiArray, the controller's joint order)
+  after one STRICT ``switch_controller`` swaps the forward position controllers in.
 
 The policy node measures the episode with the task's own ``update``, ``success`` and ``score`` on what it observed
 (object velocities from successive tracker poses) and prints one JSON line at the end.
@@ -31,6 +33,14 @@ from svhdesc.errors import SvhdescError
 from svhdesc.learn.spec import Randomisation, Task
 
 SETTLE = 0.2  # s of simulated time the node runs before the policy acts: the controllers come up
+VIA = (
+    "trajectory",
+    "forward",
+)  # how the policy node commands the servos (svhdesc.learn.ros2_policy); the default first
+MISSING_ROS2 = (
+    "deploy needs ROS 2 Jazzy's rclpy, trajectory_msgs and controller_manager_msgs, which {python} cannot import "
+    "({why}): run .venv-ros2/bin/svhdesc deploy TASK --policy F, made by `bash tools/install.sh ros2`"
+)
 
 
 def nominal(task: Task) -> Task:
@@ -113,7 +123,11 @@ class Observer:
             self.command = env.setpoint[0].clone()
         step = torch.maximum(torch.minimum(targets - self.command, env.ramp), -env.ramp)
         self.command = torch.where(hand, targets, self.command + step)
-        return self.command.tolist()
+        # in double precision within each servo's range (float32's rounding can step 1e-8 past a range's end)
+        limited = env.mjm.actuator_ctrllimited.astype(bool)
+        low = np.where(limited, env.mjm.actuator_ctrlrange[:, 0], -np.inf)
+        high = np.where(limited, env.mjm.actuator_ctrlrange[:, 1], np.inf)
+        return np.clip(self.command.double().cpu().numpy(), low, high).tolist()
 
     def verdict(self) -> dict[str, Any]:
         env = self.env
@@ -148,20 +162,36 @@ def task_simulation(task: Task, seed: int, policy: Any = None) -> Any:
     return sim
 
 
-def run(task: Task, policy: Path, seed: int, duration: float) -> dict[str, Any]:
-    """Serve the task's simulation over ROS 2 in real time, as the robot runs, while the policy node drives it for
-    ``duration`` simulated seconds; the policy node's verdict (its JSON line). The node stops when the policy
-    node ends."""
-    from svhdesc.learn.policy import OnnxPolicy
-    from svhdesc.ros2.node import serve
+def require_ros2() -> None:
+    """What the policy node and the simulation node import from ROS 2, or one error naming deploy's own way to
+    get it (the ROS 2 venv)."""
+    try:
+        import controller_manager_msgs.srv  # noqa: F401
+        import rclpy  # noqa: F401
+        import trajectory_msgs.msg  # noqa: F401
+    except ImportError as exc:  # ModuleNotFoundError, or a wheel whose native library does not load
+        raise SvhdescError(MISSING_ROS2.format(python=sys.executable, why=exc)) from None
 
+
+def run(task: Task, policy: Path, seed: int, duration: float, via: str = VIA[0]) -> dict[str, Any]:
+    """Serve the task's simulation over ROS 2 in real time, as the robot runs, while the policy node drives it for
+    ``duration`` simulated seconds through ``via`` (one of ``VIA``); the policy node's verdict (its JSON line).
+    The node stops when the policy node ends."""
+    from svhdesc.learn.policy import OnnxPolicy
+
+    if via not in VIA:
+        raise SvhdescError(f"--via must be one of {', '.join(VIA)}, not {via!r}")
     actor = OnnxPolicy(policy, task)  # a policy of another task fails here, before anything starts
     sim = task_simulation(task, seed, actor)
+    require_ros2()
+    from svhdesc.ros2.node import serve
+
     objects = [shape.name for shape in task.scene.objects]
     verdict: dict[str, Any] = {}
 
     def start_policy(node: Any) -> None:
-        command = [sys.executable, "-m", "svhdesc.learn.ros2_policy", task.name, str(policy), str(seed), str(duration)]
+        module = "svhdesc.learn.ros2_policy"
+        command = [sys.executable, "-m", module, task.name, str(policy), str(seed), str(duration), via]
         child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
 
         def wait() -> None:
