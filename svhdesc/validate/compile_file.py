@@ -17,10 +17,11 @@ import copy
 import hashlib
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from lxml import etree
@@ -48,6 +49,10 @@ class Compiled:
     overlapping: tuple[tuple[str, str], ...] = ()
     # joint id -> its velocity limit (URDF <limit velocity>), which a sweep of its servo respects
     velocity: dict[int, float] = field(default_factory=dict)
+    # the keyframe the model rests in (the settings' keyframe, else 0)
+    key: int = 0
+    # joint name -> the settings' quirks for it (svhdesc.validate.settings.JointSettings)
+    joints: Mapping[str, Any] = field(default_factory=dict)
 
 
 class CompileFailed(SvhdescError):
@@ -199,13 +204,18 @@ def _positive_definite(inertia: etree._Element) -> None:
         inertia.set(key, repr(float(fixed[i, j])))
 
 
-def compile_urdf(source: UrdfSource, pose: dict[str, float] | None = None) -> Compiled:
+def compile_urdf(
+    source: UrdfSource, pose: dict[str, float] | None = None, joints: Mapping[str, Any] | None = None
+) -> Compiled:
     """The URDF compiled by MuJoCo's importer with its servos; with ``pose`` (the settings' rest pose), a keyframe
-    'rest' there, the servos aimed at it, which the checks then take as the pose the file states."""
+    'rest' there, the servos aimed at it, which the checks then take as the pose the file states; ``joints`` (the
+    settings' JointSettings by name) may rate a joint's effort over its <limit effort>."""
     import mujoco
 
     notes: list[str] = []
     root = _prepared_urdf(source, notes)
+    joints = joints or {}
+    _efforts_over(root, joints, source.path)
     with quiet_mujoco() as said:
         try:
             spec = _spec(root, lenient=False)
@@ -249,7 +259,26 @@ def compile_urdf(source: UrdfSource, pose: dict[str, float] | None = None) -> Co
 
     rated = {model.joint(name).id: effort for name, effort in efforts.items()}
     velocity = {model.joint(name).id: speed for name, speed in _velocities(root).items() if name in efforts}
-    return Compiled(model, where, rated, notes, "urdf", tuple(sorted(overlapping)), velocity)
+    return Compiled(model, where, rated, notes, "urdf", tuple(sorted(overlapping)), velocity, joints=joints)
+
+
+def _efforts_over(root: etree._Element, joints: Mapping[str, Any], path: Path) -> None:
+    """The settings' efforts written into the prepared copy's <limit>s; a joint the model lacks is an error."""
+    for name, quirks in joints.items():
+        joint = next((j for j in root.iterfind("joint") if j.get("name") == name), None)
+        if joint is None:
+            raise unknown_joint(path, name)
+        if quirks.effort is None:
+            continue
+        if joint.find("limit") is None:
+            raise SvhdescError(
+                f"{path}: the settings rate joint '{name}' at effort {quirks.effort:g}; it has no <limit>"
+            )
+        joint.find("limit").set("effort", repr(quirks.effort))
+
+
+def unknown_joint(path: Path, name: str, key: str = "joints") -> SvhdescError:
+    return SvhdescError(f"{path}: the settings' {key} names joint '{name}', which the model does not have")
 
 
 def _velocities(root: etree._Element) -> dict[str, float]:
@@ -284,9 +313,7 @@ def _add_rest(spec, model, pose: dict[str, float], path: Path) -> None:  # type:
         try:
             joint = model.joint(name)
         except KeyError:
-            raise SvhdescError(
-                f"{path}: the settings' pose names joint '{name}', which the model does not have"
-            ) from None
+            raise unknown_joint(path, name, "pose") from None
         qpos[model.jnt_qposadr[joint.id]] = value
     ctrl = [qpos[model.jnt_qposadr[model.actuator_trnid[i, 0]]] for i in range(model.nu)]
     spec.add_key(name="rest", qpos=qpos.tolist(), ctrl=ctrl)
@@ -370,9 +397,29 @@ def _mobility(model) -> np.ndarray:  # type: ignore[no-untyped-def]
     return worst
 
 
-def mjcf_compiled(model, where: Callable[[str, str], tuple[str, int | None]]) -> Compiled:  # type: ignore[no-untyped-def]
-    """An MJCF's model as it compiled, its actuators' force bounds the joints' ratings."""
-    return Compiled(model, where, _actuator_bounds(model), [], "mjcf")
+def mjcf_compiled(  # type: ignore[no-untyped-def]
+    model,
+    where: Callable[[str, str], tuple[str, int | None]],
+    keyframe: str | None = None,
+    joints: Mapping[str, Any] | None = None,
+    path: Path | None = None,
+) -> Compiled:
+    """An MJCF's model as it compiled, its actuators' force bounds the joints' ratings (a joint's settings' effort
+    over them), resting in the settings' ``keyframe`` (else keyframe 0)."""
+    import mujoco
+
+    shown, joints, rated = path or Path(where("model", "")[0]), joints or {}, _actuator_bounds(model)
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe) if keyframe is not None else 0
+    if key < 0:
+        names = ", ".join(f"'{model.key(k).name}'" for k in range(model.nkey)) or "none"
+        raise SvhdescError(f"{shown}: the settings name keyframe '{keyframe}', which the model does not have ({names})")
+    for name, quirks in joints.items():
+        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if joint < 0:
+            raise unknown_joint(shown, name)
+        if quirks.effort is not None:
+            rated[joint] = quirks.effort
+    return Compiled(model, where, rated, [], "mjcf", key=key, joints=joints)
 
 
 def _actuator_bounds(model) -> dict[int, float]:  # type: ignore[no-untyped-def]

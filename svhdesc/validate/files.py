@@ -10,6 +10,8 @@ import re
 import stat
 import sys
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +22,7 @@ from svhdesc.errors import SvhdescError
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
 from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
 from svhdesc.validate.poses import is_position_servo
+from svhdesc.validate.quirks import Quirks
 from svhdesc.validate.static_urdf import RULES, UrdfSource
 
 STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
@@ -191,8 +194,35 @@ def _read_robot(
     from svhdesc.core.source.xacro import expand_xacro
 
     _regular(path)
-    root, files = expand_xacro(path, xacro_args, _Packages(packages, path))
+    with _regular_inputs():
+        root, files = expand_xacro(path, xacro_args, _Packages(packages, path))
     return root, (path.resolve(), *(f for f in files if f != path.resolve()))
+
+
+@contextmanager
+def _regular_inputs() -> Iterator[None]:
+    """xacro's reads of the files a xacro includes (<xacro:include>, load_yaml) refused where the file is not a
+    regular one: a FIFO or a device would block the read, or never end it."""
+    import xacro
+
+    def guarded(read: Callable[..., object], name: Callable[..., str | None]) -> Callable[..., object]:
+        def guard(*args: object) -> object:
+            named = name(*args)
+            target = Path(os.path.join(xacro.root_dir, named)) if named else None
+            if target is not None and target.exists() and not target.is_file():
+                by = next((f for f in reversed(xacro.filestack or []) if f and f != named), "the xacro")
+                raise SvhdescError(f"{by}: includes {target}, which is not a regular file (a FIFO, a device, a folder)")
+            return read(*args)
+
+        return guard
+
+    saved = xacro.parse, xacro.load_yaml
+    xacro.parse = guarded(saved[0], lambda inp, filename=None: filename if inp is None else None)
+    xacro.load_yaml = guarded(saved[1], lambda filename: xacro.abs_filename_spec(filename))
+    try:
+        yield
+    finally:
+        xacro.parse, xacro.load_yaml = saved
 
 
 def validate_file(
@@ -202,7 +232,7 @@ def validate_file(
     walked: bool = False,
     xacro_args: dict[str, str] | None = None,
     tier: str = "static",
-    pose: dict[str, float] | None = None,
+    quirks: Quirks | None = None,
 ) -> FileReport:
     """One file's report. A file given by name that cannot be parsed (or a xacro that does not expand) is an
     SvhdescError; one found in a folder's walk is a report whose xml check fails, so that one broken file does not
@@ -226,11 +256,11 @@ def validate_file(
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
         if tier == "full" and selected & {"mujoco_compile", *FULL_CHECKS}:
-            report.checks.extend(_full_urdf(source, pose or {}))
+            report.checks.extend(_full_urdf(source, quirks or Quirks()))
     elif root.tag == "mujoco":
         report = FileReport(str(path), "mjcf")
         report.checks.append(_result("xml", tolerated))
-        report.checks.extend(_mjcf_checks(path, selected, tier))
+        report.checks.extend(_mjcf_checks(path, selected, tier, quirks or Quirks()))
     else:
         raise SvhdescError(f"{path}:{root.sourceline}: not a robot file (root <{root.tag}>, not <robot> or <mujoco>)")
     report.checks = [c for c in report.checks if c.name in selected]
@@ -263,11 +293,16 @@ def _locate(files: list[tuple[Path, etree._Element]], tag: str, name: str) -> tu
     return str(files[0][0]) if files else "", None
 
 
-def _full_urdf(source: UrdfSource, pose: dict[str, float]) -> list[CheckResult]:
+def _full_urdf(source: UrdfSource, quirks: Quirks) -> list[CheckResult]:
     from svhdesc.validate.compile_file import CompileFailed, compile_urdf
 
+    if quirks.keyframe is not None:
+        raise SvhdescError(
+            f"{source.path}: the settings name keyframe '{quirks.keyframe}', but a URDF has no keyframes "
+            "(its rest pose is the settings' pose = {JOINT = position})"
+        )
     try:
-        compiled = compile_urdf(source, pose)
+        compiled = compile_urdf(source, dict(quirks.pose), quirks.joints)
     except CompileFailed as exc:
         where = exc.file or str(source.path)
         finding = Finding("mujoco_compile", where, exc.line, f"MuJoCo's URDF importer refuses it: {exc}")
@@ -313,14 +348,18 @@ def _irregular_assets(files: list[tuple[Path, etree._Element]]) -> list[Finding]
             for candidate in (folder / name for folder in folders) if name else ():
                 if os.path.lexists(candidate) and not candidate.is_file():
                     what = "a folder" if candidate.is_dir() else "not a regular file"
-                    message = f"<{element.tag} file=\"{name}\">: {candidate} is {what}"
+                    message = f'<{element.tag} file="{name}">: {candidate} is {what}'
                     found.append(Finding("mjcf_compile", str(file), element.sourceline, message))
                     break
     return found
 
 
-def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[CheckResult]:
+def _mjcf_checks(
+    path: Path, selected: set[str], tier: str = "static", quirks: Quirks | None = None
+) -> list[CheckResult]:
     import mujoco
+
+    quirks = quirks or Quirks()
 
     from svhdesc.validate.compile_file import quiet_mujoco
 
@@ -352,7 +391,7 @@ def _mjcf_checks(path: Path, selected: set[str], tier: str = "static") -> list[C
     if tier == "full" and selected & set(FULL_CHECKS):
         from svhdesc.validate.compile_file import mjcf_compiled
 
-        checks += run_full_checks(mjcf_compiled(model, _mjcf_where(path, files)))
+        checks += run_full_checks(mjcf_compiled(model, _mjcf_where(path, files), quirks.keyframe, quirks.joints, path))
     return checks
 
 

@@ -25,10 +25,11 @@ import math
 import numpy as np
 
 from svhdesc.validate.compile_file import Compiled, quiet_mujoco
+from svhdesc.validate.file_motion import CHECK, range_of_motion
 from svhdesc.validate.findings import CheckResult, Finding
 from svhdesc.validate.poses import contact_pairs, is_position_servo, rest_state, set_pose
 
-FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold")
+FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold", "range_of_motion")
 MODEL_TEST_SECONDS = 1.0  # Menagerie's _MAX_SIM_TIME
 SETTLE_SECONDS = 1.0
 MIN_STEPS = 50  # a run is this many steps at least: at a timestep of 0.1 s, 1 s is ten steps, too few to diverge
@@ -111,7 +112,7 @@ def model_test(compiled: Compiled, watch: _Watch) -> CheckResult:
 
 
 def settle(compiled: Compiled, watch: _Watch) -> CheckResult:
-    data, pose = rest_state(compiled.model)
+    data, pose = rest_state(compiled.model, compiled.key)
     steps = max(MIN_STEPS, round(SETTLE_SECONDS / compiled.model.opt.timestep))
     for _ in range(steps):
         if not watch.step(data):
@@ -190,7 +191,7 @@ def equality_tracking(compiled: Compiled, watch: _Watch) -> CheckResult:
     couplings = np.flatnonzero(model.eq_type == mujoco.mjtEq.mjEQ_JOINT)
     if couplings.size == 0:  # a weld to a mocap body drives the robot; it couples no joints
         return CheckResult("equality_tracking", "skipped", reason="no joint couplings (<mimic>, <equality><joint>)")
-    data, _ = rest_state(model)
+    data, _ = rest_state(model, compiled.key)
     leaders = {int(model.eq_obj2id[e]) for e in couplings}
     servos = [  # the leaders' servos sweep; every other joint is held where it rests
         i
@@ -247,7 +248,10 @@ def gravity_hold(compiled: Compiled) -> CheckResult:
     import mujoco
 
     model = compiled.model
-    rated = {j: f for j, f in compiled.rated.items() if model.jnt_type[j] in (2, 3)}
+    left_out = {n for n, j in compiled.joints.items() if "gravity_hold" in j.ignore}
+    rated = {
+        j: f for j, f in compiled.rated.items() if model.jnt_type[j] in (2, 3) and model.joint(j).name not in left_out
+    }
     if not rated:
         return CheckResult("gravity_hold", "skipped", reason="no joint states a force it is rated for")
     if compiled.kind == "mjcf" and np.any(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE):
@@ -330,4 +334,12 @@ def run_full_checks(compiled: Compiled) -> list[CheckResult]:
     with quiet_mujoco():
         results = [model_test(compiled, watch), settle(compiled, watch), rest_contacts(compiled)]
         results += [equality_tracking(compiled, watch), gravity_hold(compiled)]
+        results.append(range_of_motion(compiled, *joint_quirks(compiled)))
     return results
+
+
+def joint_quirks(compiled: Compiled) -> tuple[dict[str, float], dict[str, str]]:
+    """The settings' range_of_motion tolerances and the joints they leave out of it (with why)."""
+    tolerances = {n: j.tolerance for n, j in compiled.joints.items() if j.tolerance is not None}
+    left_out = {n: j.ignore[CHECK] for n, j in compiled.joints.items() if CHECK in j.ignore}
+    return tolerances, left_out

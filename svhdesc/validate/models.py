@@ -12,6 +12,7 @@ from lxml import etree
 from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, validate_file
 from svhdesc.validate.findings import CheckResult, FileReport
 from svhdesc.validate.full_checks import FULL_CHECKS
+from svhdesc.validate.quirks import JointSettings, Quirks
 from svhdesc.validate.settings import RepoSettings, arg_combinations, label
 from svhdesc.validate.static_urdf import RULES
 
@@ -38,6 +39,8 @@ class ModelRun:
     ignored: Mapping[str, str]  # check -> the reason the settings give
     tier: str = "full"
     pose: Mapping[str, float] = field(default_factory=dict)  # a URDF's rest pose, from the settings
+    keyframe: str | None = None  # an MJCF's rest pose, from the settings
+    joints: Mapping[str, JointSettings] = field(default_factory=dict)  # joints' quirks, from the settings
 
     def checks(self) -> list[str]:
         """The checks this run reports, in order, known before it runs (the pytest plugin's items)."""
@@ -45,8 +48,9 @@ class ModelRun:
 
     def run(self) -> FileReport:
         selected = set(self.selected) - set(self.ignored)
+        quirks = Quirks(dict(self.pose), self.keyframe, dict(self.joints))
         report = validate_file(
-            self.path, selected, dict(self.packages), self.walked, dict(self.args), self.tier, dict(self.pose)
+            self.path, selected, dict(self.packages), self.walked, dict(self.args), self.tier, quirks
         )
         report.path = self.label
         for check, reason in self.ignored.items():
@@ -91,6 +95,8 @@ def model_runs(
                     {c: r for c, r in own.ignore.items() if c not in command_line.select},
                     command_line.tier or settings.tier or "full",
                     own.pose,
+                    own.keyframe,
+                    own.joints,
                 )
             )
     return runs

@@ -24,14 +24,15 @@ def set_pose(model, data, sample: int) -> None:  # type: ignore[no-untyped-def]
     data.qpos[model.jnt_qposadr[joints]] = lo + (hi - lo) * halton(sample, joints.size)
 
 
-def rest_state(model):  # type: ignore[no-untyped-def]
-    """Keyframe 0's qpos and ctrl, else qpos0 within the limits with every position servo aimed at its joint."""
+def rest_state(model, key: int = 0):  # type: ignore[no-untyped-def]
+    """Keyframe ``key``'s qpos and ctrl (the settings' keyframe, else 0), else qpos0 within the limits with every
+    position servo aimed at its joint."""
     import mujoco
 
     data = mujoco.MjData(model)
     if model.nkey:
-        mujoco.mj_resetDataKeyframe(model, data, 0)
-        return data, f"keyframe '{model.key(0).name or 0}'"
+        mujoco.mj_resetDataKeyframe(model, data, key)
+        return data, f"keyframe '{model.key(key).name or key}'"
     joints, lo, hi = joint_ranges(model)
     addresses = model.jnt_qposadr[joints]
     data.qpos[addresses] = np.clip(data.qpos[addresses], lo, hi)

@@ -42,7 +42,7 @@ EFFORT_BOUND = 0.95  # of a drive's force limit: gravity and friction that large
 # rating stops it (a note, not a failure)
 
 
-def _subtree(model: Any, body: int) -> set[int]:
+def subtree(model: Any, body: int) -> set[int]:
     bodies = {body}
     for b in range(body + 1, model.nbody):
         if int(model.body_parentid[b]) in bodies:
@@ -63,17 +63,19 @@ def drive_speed(model: Any, actuator: int) -> float:
 
 
 @dataclass(frozen=True)
-class _Motion:
-    """What a stroke moves: the joint's actuator, its qpos address, the dofs that must be still for it to end, and
-    the bodies that move with it."""
+class Motion:
+    """What a stroke moves: the joint's actuator, its qpos address (or several of each, moved at once), the dofs
+    that must be still for it to end, and the bodies that move with it; ``pinned`` (qpos addresses, their values,
+    dofs) are put back after every step: a floating base held where it rests."""
 
-    actuator: int
-    adr: int
+    actuator: int | np.ndarray
+    adr: int | np.ndarray
     dofs: np.ndarray
     bodies: set[int]
+    pinned: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
-def _stroke(model: Any, data: Any, motion: _Motion, goal: float, tol: float) -> dict[tuple[str, str], float]:
+def stroke(model: Any, data: Any, motion: Motion, goal: Any, tol: Any) -> dict[tuple[str, str], float]:
     """Command ``goal`` and step until the dofs are still: near the goal (reached) or, for STALLED s, short of it
     (blocked, or a servo that cannot carry the load); at most the stroke's time. Returns the body pairs the moving
     bodies touched on the way (sampled as the stillness is), deepest contact each: a joint that scraped past its
@@ -81,17 +83,23 @@ def _stroke(model: Any, data: Any, motion: _Motion, goal: float, tol: float) -> 
     at the end."""
     import mujoco
 
-    duration = MAX_TIME + abs(goal - data.qpos[motion.adr]) / drive_speed(model, motion.actuator)
-    data.ctrl[motion.actuator] = goal
+    actuators, adrs = np.atleast_1d(motion.actuator), np.atleast_1d(motion.adr)
+    goals, tols = np.broadcast_to(goal, adrs.shape), np.broadcast_to(tol, adrs.shape)
+    duration = MAX_TIME + max(
+        abs(g - data.qpos[a]) / drive_speed(model, int(u)) for g, a, u in zip(goals, adrs, actuators)
+    )
+    data.ctrl[actuators] = goals
     stalled_since, touched = None, {}
     for step in range(int(round(duration / model.opt.timestep))):
         mujoco.mj_step(model, data)
+        if motion.pinned is not None:
+            data.qpos[motion.pinned[0]], data.qvel[motion.pinned[2]] = motion.pinned[1], 0.0
         if step % 20:
             continue
-        for pair, depth in _touching(model, data, motion.bodies).items():
+        for pair, depth in touching(model, data, motion.bodies).items():
             touched[pair] = min(touched.get(pair, 0.0), depth)
         still = bool(np.all(np.abs(data.qvel[motion.dofs]) < SETTLED_SPEED))
-        if still and abs(data.qpos[motion.adr] - goal) < tol / 4:
+        if still and np.all(np.abs(data.qpos[adrs] - goals) < tols / 4):
             break
         stalled_since = (stalled_since if stalled_since is not None else data.time) if still else None
         if stalled_since is not None and data.time - stalled_since >= STALLED:
@@ -99,7 +107,7 @@ def _stroke(model: Any, data: Any, motion: _Motion, goal: float, tol: float) -> 
     return touched
 
 
-def _touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], float]:
+def touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], float]:
     """Body pairs in contact with at least one body among ``moving`` -> their deepest contact distance."""
     pairs: dict[tuple[str, str], float] = {}
     for contact in data.contact[: data.ncon]:
@@ -110,18 +118,28 @@ def _touching(model: Any, data: Any, moving: set[int]) -> dict[tuple[str, str], 
     return pairs
 
 
-def _blocking(
+def blocking(
     model: Any, data: Any, moving: set[int], before: set[tuple[str, str]], touched: dict[tuple[str, str], float]
 ) -> list[str]:
     """Body pairs in contact with a body moving with the joint, both bodies moving included: those that were
     not touching when the stroke began first, deepest first. None at the end: the new pairs touched on the way
     (``touched``), which slowed the joint until its time ran out."""
-    pairs = _touching(model, data, moving)
+    return [
+        f"{a}/{b}" + (" (on the way)" if way else "")
+        for (a, b), way in blocking_pairs(model, data, moving, before, touched)
+    ]
+
+
+def blocking_pairs(
+    model: Any, data: Any, moving: set[int], before: set[tuple[str, str]], touched: dict[tuple[str, str], float]
+) -> list[tuple[tuple[str, str], bool]]:
+    """``blocking``'s pairs, each with whether it was only touched on the way."""
+    pairs = touching(model, data, moving)
     order = sorted(pairs.items(), key=lambda kv: (kv[0] in before, kv[1]))
     if order:
-        return [f"{a}/{b}" for (a, b), _ in order]
+        return [(pair, False) for pair, _ in order]
     crossed = sorted((depth, pair) for pair, depth in touched.items() if pair not in before)
-    return [f"{a}/{b} (on the way)" for _, (a, b) in crossed]
+    return [(pair, True) for _, pair in crossed]
 
 
 def _linkage(
@@ -134,7 +152,7 @@ def _linkage(
     return [pair for _, pair in sorted((d, p) for p, d in touched.items() if p not in before and set(p) <= names)]
 
 
-def _sweep(model: Any, home: int, motion: _Motion, followers: list[Any], span: tuple[float, float]) -> dict:
+def _sweep(model: Any, home: int, motion: Motion, followers: list[Any], span: tuple[float, float]) -> dict:
     """The body pairs that penetrate anywhere over the joint's range, the joint and its followers placed by their
     polynomials from home (positions and collision only, no dynamics): every part of a linkage that would block it,
     not only the first its stroke met (Talos' grippers meet on two pairs each)."""
@@ -149,7 +167,7 @@ def _sweep(model: Any, home: int, motion: _Motion, followers: list[Any], span: t
         for e in followers:
             data.qpos[model.jnt_qposadr[model.joint(e.joint).id]] = float(polyval(e.coeffs, q))
         mujoco.mj_fwdPosition(model, data)
-        for pair, depth in _touching(model, data, motion.bodies).items():
+        for pair, depth in touching(model, data, motion.bodies).items():
             if depth < 0:
                 found[pair] = min(found.get(pair, 0.0), depth)
     return found
@@ -273,27 +291,27 @@ class _Strokes:
         tol = TOLERANCE * (high - low)
         followers = [e for e in self.equalities if e.leader == name]
         moving = set().union(
-            _subtree(model, int(model.jnt_bodyid[joint])),
-            *(_subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),
+            subtree(model, int(model.jnt_bodyid[joint])),
+            *(subtree(model, int(model.jnt_bodyid[model.joint(e.joint).id])) for e in followers),
         )
-        before = set(_touching(model, data, moving))
+        before = set(touching(model, data, moving))
         reached: dict[str, float] = {}
         entry: dict[str, Any] = {"range": [low, high], "followers": {}}
         # A channel goes back down too (the SVH's strokes showed hysteresis); an arm joint's two ends suffice.
         strokes = (
             (("start", low), ("upper", high), ("lower", low)) if notes is None else (("start", low), ("upper", high))
         )
-        motion = _Motion(actuator, adr, self.hand_dofs if notes is None else dofs, moving)
+        motion = Motion(actuator, adr, self.hand_dofs if notes is None else dofs, moving)
         swept: dict | None = None
         for label, goal in strokes:
-            touched = _stroke(model, data, motion, goal, tol)
+            touched = stroke(model, data, motion, goal, tol)
             q = reached[label] = float(data.qpos[adr])
             if abs(q - goal) > tol:
-                blockers = _blocking(model, data, moving, before, touched)
+                blockers = blocking(model, data, moving, before, touched)
                 if notes is None and swept is None:  # a channel: every pair of its own parts over its range
                     swept = _sweep(model, self.home, motion, followers, (low, high))
                 linkage = _linkage(model, moving, before, {**(swept or {}), **touched})
-                miss = _Miss(name, label, goal, q, (low, high), tol, blockers, linkage)
+                miss = Miss(name, label, goal, q, (low, high), tol, blockers, linkage)
                 self.judge(miss, joint, actuator, entry, problems, notes)
             for e in followers:
                 expected = float(polyval(e.coeffs, goal))
@@ -309,7 +327,7 @@ class _Strokes:
 
     def judge(
         self,
-        miss: _Miss,
+        miss: Miss,
         joint: int,
         actuator: int,
         entry: dict[str, Any],
@@ -322,9 +340,10 @@ class _Strokes:
         if blockers:
             entry.setdefault("blocked_by", {})[miss.label] = blockers
         text = f"{name} stops at {miss.reached:.3f} of {miss.goal:.4g} going {miss.label}"
-        if not low - miss.tol <= miss.reached <= high + miss.tol:  # past the end: the limit gave way to the servo
+        kind, bound = classify(self.model, self.data, miss, joint, actuator)
+        if kind == "limit":  # past the end: the limit gave way to the servo
             problems.append(f"{name} goes through its limit to {miss.reached:.3f} (range {low:.4g} .. {high:.4g})")
-        elif not blockers and notes is not None and (bound := _effort_bound(self.model, self.data, joint, actuator)):
+        elif kind == "rating" and notes is not None:
             entry.setdefault("effort_bound", {})[miss.label] = bound
             notes.append(text + f", nothing in contact: {bound}, its rating stops it there (not a failure)")
         elif not blockers:
@@ -339,8 +358,22 @@ class _Strokes:
             problems.append(text + f", blocked by {blockers[0]}" + _exclude_hint(miss.linkage))
 
 
+def classify(model: Any, data: Any, miss: Miss, joint: int, actuator: int) -> tuple[str, str]:
+    """Why a stroke ended short, the pose it ended in being ``data``'s: 'limit' (past an end: the limit gave way to
+    the servo), 'contact' (something touches what moves with it: ``miss.blockers``), 'rating' (nothing in contact,
+    gravity and friction need all of its drive's force limit: the second item says so) or 'soft' (nothing in
+    contact, its drive below its force limit: the servo is too soft for its friction, or too slow)."""
+    low, high = miss.range
+    if not low - miss.tol <= miss.reached <= high + miss.tol:
+        return "limit", ""
+    if miss.blockers:
+        return "contact", ""
+    bound = _effort_bound(model, data, joint, actuator)
+    return ("rating", bound) if bound else ("soft", "")
+
+
 @dataclass(frozen=True)
-class _Miss:
+class Miss:
     """A stroke that ended more than ``tol`` from its goal."""
 
     joint: str

@@ -10,9 +10,11 @@
     args = { side = ["left", "right"], gripper = "true" }  # a list: one model per choice, as pal's urdf_test
     pose = { shoulder = 0.5, elbow = -1.2 }              # a URDF's rest pose: settle and contacts are judged there
     ignore = { inertials = "the base is welded to the world" }
+    keyframe = "home"                                    # an MJCF's rest pose: its keyframe of that name, not 0
+    joints.gripper = { tolerance = 0.002, effort = 20, ignore = { range_of_motion = "a cam the model omits" } }
 
 An svhdesc.yaml beside a model may add a ``validate:`` section with the same keys as a model's table (args,
-packages, select, ignore); it applies to every model in its folder, on top of pyproject.toml's.
+packages, select, ignore, pose, keyframe, joints); it applies to every model in its folder, on top of pyproject.toml's.
 
 Read where it is used, with every fault one error naming the file and the line of the key.
 """
@@ -29,10 +31,13 @@ from pathlib import Path
 from typing import Any
 
 from svhdesc.errors import SvhdescError
+from svhdesc.validate.quirks import JointSettings
 
 _TOP_KEYS = {"models", "packages", "select", "ignore", "model", "tier"}
 TIERS = ("static", "full")
-_MODEL_KEYS = {"args", "packages", "select", "ignore", "pose"}
+_MODEL_KEYS = {"args", "packages", "select", "ignore", "pose", "keyframe", "joints"}
+_JOINT_KEYS = {"effort", "tolerance", "ignore"}
+JOINT_CHECKS = ("gravity_hold", "range_of_motion")  # the checks a joint's settings may leave it out of
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,8 @@ class ModelSettings:
     ignore: Mapping[str, str] = field(default_factory=dict)
     # a URDF's rest pose (joint = position): the pose it states, where the full tier settles and judges contacts
     pose: Mapping[str, float] = field(default_factory=dict)
+    keyframe: str | None = None  # an MJCF's rest pose: its keyframe of this name (else keyframe 0)
+    joints: Mapping[str, JointSettings] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -91,6 +98,8 @@ def _merged(under: ModelSettings, over: ModelSettings) -> ModelSettings:
         over.select or under.select,
         {**under.ignore, **over.ignore},
         {**under.pose, **over.pose},
+        over.keyframe or under.keyframe,
+        {**under.joints, **over.joints},
     )
 
 
@@ -229,7 +238,49 @@ def _model_settings(file: Path, table: dict[str, Any], section: str) -> ModelSet
         tuple(select),
         ignore,
         _pose(file, table.get("pose", {}), section),
+        _keyframe(file, table.get("keyframe"), section),
+        _joints(file, table.get("joints", {}), section),
     )
+
+
+def _keyframe(file: Path, value: Any, section: str) -> str | None:
+    if value is not None and not (isinstance(value, str) and value):
+        where = _where(file, "keyframe", section)
+        raise SvhdescError(f"{where}: 'keyframe' in [{section}] must be a keyframe's name, not {value!r}")
+    return value
+
+
+def _joints(file: Path, value: Any, section: str) -> dict[str, JointSettings]:
+    if not isinstance(value, dict):
+        where = _where(file, "joints", section)
+        raise SvhdescError(f"{where}: 'joints' in [{section}] must be a table of JOINT = {{effort, tolerance, ignore}}")
+    return {str(name): _joint(file, name, quirks, section) for name, quirks in value.items()}
+
+
+def _joint(file: Path, name: str, quirks: Any, section: str) -> JointSettings:
+    _keys(file, quirks, _JOINT_KEYS, f"{section}.joints.{name}")
+    numbers = {}
+    for key in ("effort", "tolerance"):
+        value = quirks.get(key)
+        if value is not None and not (_number(value) and value > 0):
+            where = _where(file, key, section)
+            raise SvhdescError(f"{where}: joint '{name}': '{key}' must be a number > 0, not {value!r}")
+        numbers[key] = float(value) if value is not None else None
+    ignore = quirks.get("ignore", {})
+    if not isinstance(ignore, dict) or not all(isinstance(v, str) and v.strip() for v in ignore.values()):
+        where = _where(file, "ignore", section)
+        raise SvhdescError(f"{where}: joint '{name}': 'ignore' must be a table of CHECK = \"reason\"")
+    for check in ignore:
+        if check not in JOINT_CHECKS:
+            where = _where(file, check, section)
+            raise SvhdescError(
+                f"{where}: joint '{name}': a joint may be left out of {' or '.join(JOINT_CHECKS)}, not '{check}'"
+            )
+    return JointSettings(numbers["effort"], numbers["tolerance"], dict(ignore))
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _pose(file: Path, value: Any, section: str) -> dict[str, float]:

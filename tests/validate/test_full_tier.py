@@ -15,6 +15,7 @@ import pytest
 from lxml import etree
 
 from svhdesc.validate.files import known_checks, validate_file
+from svhdesc.validate.quirks import Quirks
 from tests.support import run_cli
 from tests.validate.test_static_files import PACKAGES, _failures, _panda, _set, _write
 
@@ -195,10 +196,12 @@ def test_a_urdf_rest_pose_from_the_settings_is_where_contacts_are_judged(tmp_pat
     settle starts and rest_contacts judges: the Panda's home is clear, its zero pose folds the hand onto the
     forearm (seeded fault: the pose not passed to compile_urdf: rest_contacts is skipped in both)."""
     path = _write(_panda(), tmp_path / "panda.urdf")
-    home = validate_file(path, ALL, PACKAGES, tier="full", pose=PANDA_HOME)
+    home = validate_file(path, ALL, PACKAGES, tier="full", quirks=Quirks(PANDA_HOME))
     statuses = {c.name: c.status for c in home.checks}
     assert statuses["rest_contacts"] == "pass" and statuses["settle"] == "pass", home.checks
-    folded = validate_file(path, ALL, PACKAGES, tier="full", pose={"panda_joint4": -0.07, "panda_joint6": 0.0})
+    folded = validate_file(
+        path, ALL, PACKAGES, tier="full", quirks=Quirks({"panda_joint4": -0.07, "panda_joint6": 0.0})
+    )
     (finding, *_) = _failures(folded)["rest_contacts"]
     assert "'panda_hand' and 'panda_link5'" in finding.message and "keyframe 'rest'" in finding.message
     assert finding.line == etree.parse(str(path)).find("link[@name='panda_link5']").sourceline

@@ -1,0 +1,189 @@
+"""range_of_motion on robot files as they stand (`svhdesc validate PATH`, full tier), the settings' keyframe and
+joints' quirks, and a xacro including a FIFO.
+
+Clean robots: the three-joint arm with a sliding finger of tests/data/arm3 (an MJCF), and example-robot-data's PR2
+gripper (its palm and fingers, read where pip put the package; the copy written to tmp_path is pruned to them), whose
+fingertips meet before the lower end of its range: a pass with the closing pose, not a blocked joint (the issue's
+third false alarm). Seeded faults: a servo range past its joint's limit, which it drives the joint through (a finding
+at the joint's line);
+the arm's post moved into its way (a note naming the pose and the pair); a keyframe name the model lacks, a joint
+the settings name that the model lacks, an effort that is not > 0 (each one error, exit 2); a weak shoulder whose
+settings' effort rates it (gravity_hold passes then); a xacro including a FIFO (one error, exit 2, no hang).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+from lxml import etree
+
+from svhdesc.errors import SvhdescError
+from svhdesc.validate.files import validate_file
+from svhdesc.validate.findings import FileReport
+from svhdesc.validate.quirks import JointSettings, Quirks
+from tests.support import REPO, run_cli
+
+ARM = REPO / "tests" / "data" / "arm3" / "arm3.xml"
+FULL = {"range_of_motion", "settle", "gravity_hold", "mujoco_compile", "mjcf_compile"}
+
+
+def _erd() -> Path:
+    import pybullet_data
+
+    return Path(pybullet_data.__file__).resolve().parents[1] / "cmeel.prefix" / "share" / "example-robot-data"
+
+
+def _arm(tmp_path: Path, edit=None) -> Path:  # type: ignore[no-untyped-def]
+    tree = etree.parse(str(ARM))
+    if edit is not None:
+        edit(tree)
+    path = tmp_path / "arm3.xml"
+    tree.write(str(path))
+    return path
+
+
+def _check(report: FileReport, name: str = "range_of_motion"):  # type: ignore[no-untyped-def]
+    return next(c for c in report.checks if c.name == name)
+
+
+def test_the_clean_arm_reaches_every_end_and_costs_two_strokes(tmp_path: Path) -> None:
+    check = _check(validate_file(_arm(tmp_path), FULL, {}, tier="full"))
+    assert check.status == "pass" and check.figure.startswith("4 joint(s) driven to both ends at once"), check
+
+
+def test_a_servo_driving_its_joint_through_its_limit_is_a_finding_at_the_joint(tmp_path: Path) -> None:
+    """Seeded fault: the finger's servo may aim at 0.1 m on a slide that stops at 0.04 m; its 20 N push takes the
+    finger 6.7 mm through MuJoCo's soft limit (actuator_ranges names the ctrlrange; range_of_motion what it does).
+    Its ctrlrange as written, 0 .. 0.04 m, reaches both ends (the clean arm above)."""
+    path = _arm(tmp_path, lambda t: t.find(".//position[@name='finger_slide']").set("ctrlrange", "0 0.1"))
+    check = _check(validate_file(path, FULL, {}, tier="full"))
+    assert check.status == "fail", check
+    (finding,) = check.findings
+    assert finding.message.startswith("joint 'finger_slide' goes through its limit to 0.04"), finding
+    assert "driven to its upper end 0.04 m from keyframe 'home', nothing in contact" in finding.message
+    assert finding.line == etree.parse(str(path)).find(".//joint[@name='finger_slide']").sourceline
+
+
+def test_a_joint_stopped_short_is_reported_with_the_pose_and_the_pair(tmp_path: Path) -> None:
+    """The post moved under the arm: the shoulder stops on it going up. The scene is not the robot: a note (as the
+    built variants' arm joints get), naming where the joint stopped, the end and the pair."""
+    path = _arm(tmp_path, lambda t: t.find(".//body[@name='post']").set("pos", "0.25 0 -0.3"))
+    check = _check(validate_file(path, FULL, {}, tier="full"))
+    assert check.status == "pass" and "'shoulder' stops at" in check.figure, check
+    assert "going upper: the scene: link1/post" in check.figure, check.figure
+
+
+@pytest.fixture(scope="module")
+def pr2_gripper(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """example-robot-data's PR2, pruned to its right gripper (the palm as the root): a parallel gripper whose second
+    finger, parallel links and tips follow the first by <mimic>."""
+    tree = etree.parse(str(_erd() / "robots" / "pr2_description" / "urdf" / "pr2.urdf"))
+    root, keep = tree.getroot(), {"r_gripper_palm_link"}
+    joints = list(root.iterfind("joint"))
+    for _ in joints:
+        keep |= {j.find("child").get("link") for j in joints if j.find("parent").get("link") in keep}
+    for element in list(root):
+        name = element.find("parent").get("link") if element.tag == "joint" else element.get("name")
+        if element.tag not in ("link", "joint") or name not in keep:
+            root.remove(element)
+    path = tmp_path_factory.mktemp("pr2") / "pr2_gripper.urdf"
+    tree.write(str(path))
+    return path
+
+
+def test_a_gripper_closing_on_itself_passes_with_the_closing_pose(pr2_gripper: Path) -> None:
+    """The fingertips meet at 0.0085 rad, before the lower end 0: how a gripper closes, not a blocked joint
+    (seeded fault: without the closing rule the same stop reads 'its range crosses its own robot')."""
+    report = validate_file(pr2_gripper, FULL, {"example-robot-data": _erd()}, tier="full")
+    check = _check(report)
+    assert check.status == "pass", check
+    assert "'r_gripper_l_finger_joint' closes at 0.008" in check.figure, check.figure
+    assert "fingers touch (r_gripper_l_finger_tip_link/r_gripper_r_finger_tip_link)" in check.figure
+    assert "crosses its own robot" not in check.figure
+
+
+def test_joints_quirks_tolerance_ignore_and_effort(tmp_path: Path) -> None:
+    """The settings leave a joint out of range_of_motion with its reason, rate a weak joint (gravity_hold passes on
+    the settings' effort: seeded fault, forcerange -1 1 fails without it) and start from a keyframe by name."""
+    path = _arm(tmp_path, lambda t: t.find(".//position[@name='shoulder']").set("forcerange", "-1 1"))
+    weak = validate_file(path, FULL, {}, tier="full")
+    assert _check(weak, "gravity_hold").status == "fail"
+    quirks = Quirks(
+        joints={
+            "shoulder": JointSettings(effort=60.0),
+            "wrist": JointSettings(ignore={"range_of_motion": "a cable stops it"}),
+            "elbow": JointSettings(tolerance=0.5),
+        }
+    )
+    rated = validate_file(path, FULL, {}, tier="full", quirks=quirks)
+    assert _check(rated, "gravity_hold").status == "pass"
+    motion = _check(rated)
+    assert motion.figure.startswith("3 joint(s)") and "'wrist' left out: a cable stops it" in motion.figure
+    tree = etree.parse(str(ARM))
+    key = etree.SubElement(tree.find(".//keyframe"), "key", name="bent", qpos="0 1 1 0.02", ctrl="0 1 1 0.02")
+    assert key is not None
+    tree.write(str(tmp_path / "two_keys.xml"))
+    bent = validate_file(tmp_path / "two_keys.xml", FULL, {}, tier="full", quirks=Quirks(keyframe="bent"))
+    assert "from keyframe 'bent'" in _check(bent, "settle").figure and "keyframe 'bent'" in _check(bent).figure
+    with pytest.raises(SvhdescError, match="keyframe 'stand', which the model does not have \\('home', 'bent'\\)"):
+        validate_file(tmp_path / "two_keys.xml", FULL, {}, tier="full", quirks=Quirks(keyframe="stand"))
+    with pytest.raises(SvhdescError, match="the settings' joints names joint 'knee', which the model does not have"):
+        validate_file(path, FULL, {}, tier="full", quirks=Quirks(joints={"knee": JointSettings(tolerance=0.1)}))
+
+
+SETTINGS = """[tool.svhdesc.model."arm3.xml"]
+keyframe = "home"
+joints = {{ wrist = {{ {quirk} }} }}
+"""
+
+
+@pytest.mark.parametrize(
+    ("quirk", "words"),
+    [
+        ("effort = -1", "joint 'wrist': 'effort' must be a number > 0, not -1"),
+        ('ignore = { settle = "x" }', "a joint may be left out of gravity_hold or range_of_motion, not 'settle'"),
+        ("speed = 1", "unknown key 'speed'"),
+    ],
+)
+def test_bad_joint_settings_are_one_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, quirk: str, words: str
+) -> None:
+    _arm(tmp_path)
+    (tmp_path / "pyproject.toml").write_text(SETTINGS.format(quirk=quirk))
+    monkeypatch.chdir(tmp_path)
+    result = run_cli("validate", "arm3.xml", "--tier", "static", in_process=True)
+    assert result.returncode == 2 and result.stdout == "", result
+    assert result.stderr.startswith(f"error: {tmp_path / 'pyproject.toml'}:") and words in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_settings_keyframe_and_joints_from_pyproject(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _arm(tmp_path)
+    (tmp_path / "pyproject.toml").write_text(SETTINGS.format(quirk='ignore = { range_of_motion = "a cable" }'))
+    monkeypatch.chdir(tmp_path)
+    result = run_cli("validate", "arm3.xml", "--format", "json", in_process=True)
+    assert result.returncode == 0, result
+    assert "'wrist' left out: a cable" in result.stdout
+    (tmp_path / "pyproject.toml").write_text(SETTINGS.format(quirk="tolerance = 0.1").replace("home", "sit"))
+    refused = run_cli("validate", "arm3.xml", in_process=True)
+    assert refused.returncode == 2 and "keyframe 'sit', which the model does not have ('home')" in refused.stderr
+
+
+def test_a_xacro_including_a_fifo_is_refused_not_waited_on(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "pipe.xacro")
+    (tmp_path / "robot.urdf.xacro").write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <xacro:include filename="pipe.xacro"/>\n  <link name="base"/>\n</robot>\n'
+    )
+    try:  # a process of its own, bounded: without the guard the include's read waits for a writer forever
+        result = run_cli("validate", str(tmp_path / "robot.urdf.xacro"), "--tier", "static", timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("validate waited on the FIFO")
+    assert result.returncode == 2 and result.stdout == "", result
+    assert result.stderr.strip() == (
+        f"error: {tmp_path / 'robot.urdf.xacro'}: includes {tmp_path / 'pipe.xacro'}, which is not a regular file "
+        "(a FIFO, a device, a folder)"
+    )
