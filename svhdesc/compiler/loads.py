@@ -1,6 +1,7 @@
 """What each joint of a robot carries at a pose, from the IR's inertials alone: the gravity torque (force for a
 sliding joint) it must hold, the inertia about its axis that its servo moves (the mass matrix's diagonal), and the
-joint-space mass matrix itself.
+diagonal of the inverse mass matrix (each joint's mobility with the others free). Each is one or two passes over
+the tree, linear in the number of links (a 10,000-link chain is no harder than its length).
 
 ``svhdesc init`` sizes drives with these before anything is built: an unrated joint gets an effort that holds the
 robot at ``home``, and no servo is stiffer than the timestep can integrate on the inertia behind it. Scalar and
@@ -19,6 +20,7 @@ from svhdesc.core.frames import pose_matrix
 from svhdesc.ir import Inertial, Joint, Robot
 
 GRAVITY = 9.81  # m/s^2, along -z of the root link
+PIVOT_FLOOR = 1e-12  # kg m^2 (kg): the least articulated inertia of a joint that moves nothing with mass
 
 
 @dataclass(frozen=True)
@@ -46,37 +48,31 @@ def _unit(axis: tuple[float, float, float]) -> np.ndarray:
     return np.array([float(v) / length for v in axis])
 
 
-def link_frames(robot: Robot, pose: dict[str, float]) -> dict[str, np.ndarray]:
-    """Every link's 4x4 frame in the root's, with the joints at ``pose`` (0 where it names none)."""
-    frames = {robot.root: np.eye(4)}
+def _tree(robot: Robot) -> tuple[dict[str, list[Joint]], list[Joint]]:
+    """Each link's child joints, and the joints in an order where a joint comes after its parent link's joint."""
     children: dict[str, list[Joint]] = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)
-    stack = [robot.root]
+    order, stack = [], [robot.root]
     while stack:
-        parent = stack.pop()
-        for joint in children.get(parent, []):
-            motion = np.eye(4)
-            q = float(pose.get(joint.name, 0.0))
-            if joint.type in ("revolute", "continuous"):
-                motion[:3, :3] = _rotation(_unit(joint.axis), q)
-            elif joint.type == "prismatic":
-                motion[:3, 3] = _unit(joint.axis) * q
-            frames[joint.child] = exact.matmul(exact.matmul(frames[parent], pose_matrix(joint.origin)), motion)
+        for joint in children.get(stack.pop(), []):
+            order.append(joint)
             stack.append(joint.child)
+    return children, order
+
+
+def link_frames(robot: Robot, pose: dict[str, float]) -> dict[str, np.ndarray]:
+    """Every link's 4x4 frame in the root's, with the joints at ``pose`` (0 where it names none)."""
+    frames = {robot.root: np.eye(4)}
+    for joint in _tree(robot)[1]:
+        motion = np.eye(4)
+        q = float(pose.get(joint.name, 0.0))
+        if joint.type in ("revolute", "continuous"):
+            motion[:3, :3] = _rotation(_unit(joint.axis), q)
+        elif joint.type == "prismatic":
+            motion[:3, 3] = _unit(joint.axis) * q
+        frames[joint.child] = exact.matmul(exact.matmul(frames[joint.parent], pose_matrix(joint.origin)), motion)
     return frames
-
-
-def _descendants(robot: Robot, link: str) -> list[str]:
-    children: dict[str, list[str]] = {}
-    for joint in robot.joints:
-        children.setdefault(joint.parent, []).append(joint.child)
-    found, stack = [], [link]
-    while stack:
-        name = stack.pop()
-        found.append(name)
-        stack.extend(children.get(name, []))
-    return found
 
 
 def _tensor(inertial: Inertial) -> np.ndarray:
@@ -92,103 +88,147 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
     return math.fsum(float(x) * float(y) for x, y in zip(a, b))
 
 
+def _skew(v: np.ndarray) -> np.ndarray:
+    """[v x]: the matrix of the cross product with ``v``."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+@dataclass(frozen=True)
+class _Masses:
+    """Mass moments about a point, world axes: of one link or of a subtree (sums, so composite bodies add)."""
+
+    mass: float
+    first: np.ndarray  # sum of m (c - p), c each centre of mass
+    second: np.ndarray  # sum of m (c - p)(c - p)^T
+    spin: np.ndarray  # sum of the tensors about their own centres
+
+    def shifted(self, d: np.ndarray) -> _Masses:
+        """The same moments about the point p - ``d`` (c - p + d)."""
+        first = self.first + self.mass * d
+        cross = np.outer(self.first, d)
+        second = self.second + cross + cross.T + self.mass * np.outer(d, d)
+        return _Masses(self.mass, first, second, self.spin)
+
+    def __add__(self, other: _Masses) -> _Masses:
+        return _Masses(
+            self.mass + other.mass, self.first + other.first, self.second + other.second, self.spin + other.spin
+        )
+
+    def spatial(self) -> np.ndarray:
+        """The 6x6 spatial inertia about the point (angular rows and columns first)."""
+        rotational = self.spin + (math.fsum(np.diag(self.second).tolist()) * np.eye(3) - self.second)
+        coupling = _skew(self.first)
+        return np.block([[rotational, coupling], [coupling.T, self.mass * np.eye(3)]])
+
+
+def _link_masses(inertial: Inertial | None, frame: np.ndarray) -> _Masses:
+    """One link's moments about its frame's origin (nothing where it has no inertial or no mass)."""
+    if inertial is None or inertial.mass <= 0:
+        return _Masses(0.0, np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3)))
+    rotation = frame[:3, :3]
+    arm = exact.matmul(rotation, np.array(inertial.com, dtype=float).reshape(3, 1)).reshape(3)
+    spin = exact.matmul(exact.matmul(rotation, _tensor(inertial)), rotation.T)
+    return _Masses(inertial.mass, inertial.mass * arm, inertial.mass * np.outer(arm, arm), spin)
+
+
+def _subtrees(robot: Robot, frames: dict[str, np.ndarray], masses: dict[str, Inertial]) -> dict[str, _Masses]:
+    """Each joint's child link's subtree's moments about that link's origin: one pass from the leaves, each link's
+    moments added once to its parent's, shifted (the composite-body pass: linear in the number of links)."""
+    children, order = _tree(robot)
+    found: dict[str, _Masses] = {}
+    for joint in reversed(order):  # a link's child joints come later in ``order``: theirs are done
+        link = joint.child
+        total = _link_masses(masses.get(link), frames[link])
+        for below in children.get(link, []):
+            total = total + found[below.child].shifted(frames[below.child][:3, 3] - frames[link][:3, 3])
+        found[link] = total
+    return found
+
+
+def _world_axis(joint: Joint, frame: np.ndarray) -> np.ndarray:
+    return exact.matmul(frame[:3, :3], _unit(joint.axis).reshape(3, 1)).reshape(3)
+
+
 def joint_loads(robot: Robot, pose: dict[str, float], masses: dict[str, Inertial]) -> dict[str, Load]:
     """The load of every movable joint at ``pose``; ``masses``: each link's inertial (links without one carry
-    nothing; an inertial whose tensor is not valid should be given with its tensor zeroed: only its mass counts)."""
+    nothing; an inertial whose tensor is not valid should be given with its tensor zeroed: only its mass counts).
+
+    The joint's gravity load is the moment of its subtree's weight about its axis, from the subtree's mass and first
+    moment about the joint's origin; its inertia, the subtree's second moment about the axis plus the links' own
+    tensors (``_subtrees``: one pass over the tree, not one over the subtree for each joint)."""
     frames = link_frames(robot, pose)
+    subtrees = _subtrees(robot, frames, masses)
     down = np.array([0.0, 0.0, -GRAVITY])
     loads = {}
     for joint in robot.joints:
         if not joint.movable:
             continue
-        frame = frames[joint.child]
-        axis = exact.matmul(frame[:3, :3], _unit(joint.axis).reshape(3, 1)).reshape(3)
-        origin = frame[:3, 3]
-        gravity, inertia = [], []
-        for name in _descendants(robot, joint.child):
-            inertial = masses.get(name)
-            if inertial is None or inertial.mass <= 0:
-                continue
-            rotation = frames[name][:3, :3]
-            centre = frames[name][:3, 3] + exact.matmul(rotation, np.array(inertial.com).reshape(3, 1)).reshape(3)
-            weight = down * inertial.mass
-            if joint.type == "prismatic":
-                gravity.append(_dot(axis, weight))
-                inertia.append(inertial.mass)
-                continue
-            arm = centre - origin
-            gravity.append(_dot(axis, _cross(arm, weight)))
-            local = exact.matmul(rotation.T, axis.reshape(3, 1)).reshape(3)
-            spin = _dot(local, exact.matmul(_tensor(inertial), local.reshape(3, 1)).reshape(3))
-            lever = _cross(axis, arm)
-            inertia.append(spin + inertial.mass * _dot(lever, lever))
-        loads[joint.name] = Load(math.fsum(gravity), math.fsum(inertia))
+        axis = _world_axis(joint, frames[joint.child])
+        moments = subtrees[joint.child]
+        if joint.type == "prismatic":
+            loads[joint.name] = Load(_dot(axis, down * moments.mass), moments.mass)
+            continue
+        gravity = _dot(axis, _cross(moments.first, down))
+        about = moments.spin + (math.fsum(np.diag(moments.second).tolist()) * np.eye(3) - moments.second)
+        loads[joint.name] = Load(gravity, _dot(axis, exact.matmul(about, axis.reshape(3, 1)).reshape(3)))
     return loads
 
 
-def _columns(robot: Robot, frames: dict[str, np.ndarray]) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
-    """Each movable joint's (type, world axis, world origin)."""
-    found = {}
-    for joint in robot.joints:
+def _force_shift(d: np.ndarray) -> np.ndarray:
+    """The 6x6 map of a spatial force (moment first) about a point to the point ``d`` behind it (p - d)."""
+    return np.block([[np.eye(3), _skew(d)], [np.zeros((3, 3)), np.eye(3)]])
+
+
+def _motion(joint: Joint, frame: np.ndarray) -> np.ndarray:
+    """The joint's motion subspace at its origin, world axes (angular part first)."""
+    axis = _world_axis(joint, frame)
+    return np.concatenate([np.zeros(3), axis]) if joint.type == "prismatic" else np.concatenate([axis, np.zeros(3)])
+
+
+def _articulated(
+    robot: Robot, frames: dict[str, np.ndarray], masses: dict[str, Inertial]
+) -> dict[str, tuple[np.ndarray, float]]:
+    """The articulated-body pass from the leaves: each movable joint's U = I^A s and D = s^T I^A s (D at least
+    PIVOT_FLOOR), I^A the articulated inertia of its child's subtree about the child's origin."""
+    children, order = _tree(robot)
+    inertia: dict[str, np.ndarray] = {}
+    found: dict[str, tuple[np.ndarray, float]] = {}
+    for joint in reversed(order):
+        link = joint.child
+        total = _link_masses(masses.get(link), frames[link]).spatial()
+        for below in children.get(link, []):
+            shift = _force_shift(frames[below.child][:3, 3] - frames[link][:3, 3])
+            carried = inertia.pop(below.child)
+            if below.movable:
+                u, d = found[below.name]
+                carried = carried - np.outer(u, u) / d
+            total = total + exact.matmul(exact.matmul(shift, carried), shift.T)
+        inertia[link] = total
         if joint.movable:
-            frame = frames[joint.child]
-            axis = exact.matmul(frame[:3, :3], _unit(joint.axis).reshape(3, 1)).reshape(3)
-            found[joint.name] = (joint.type, axis, frame[:3, 3])
+            s = _motion(joint, frames[link])
+            u = exact.matmul(total, s.reshape(6, 1)).reshape(6)
+            found[joint.name] = (u, max(_dot(s, u), PIVOT_FLOOR))
     return found
 
 
-def mass_matrix(
-    robot: Robot, pose: dict[str, float], masses: dict[str, Inertial]
-) -> tuple[list[str], list[list[float]]]:
-    """The joint-space mass matrix at ``pose`` over the movable joints (their names, in the robot's order): for each
-    link, m Jv^T Jv + Jw^T I Jw with the Jacobian of its centre of mass."""
+def mobilities(robot: Robot, pose: dict[str, float], masses: dict[str, Inertial]) -> dict[str, float]:
+    """The diagonal of the inverse joint-space mass matrix at ``pose``, by movable joint: a joint's acceleration
+    under a unit torque (force) of its own with every other joint free. Linear in the number of links: D^-1 of the
+    articulated-body pass plus what the compliance Omega of the parent body adds (Omega_child = P^T X^T Omega X P +
+    s D^-1 s^T outwards from the fixed root, P = 1 - U D^-1 s^T), in place of inverting the n x n matrix."""
     frames = link_frames(robot, pose)
-    columns = _columns(robot, frames)
-    names = list(columns)
-    index = {name: i for i, name in enumerate(names)}
-    parent_joint = {j.child: j for j in robot.joints}
-    matrix = [[0.0] * len(names) for _ in names]
-    for link, inertial in masses.items():
-        if inertial is None or inertial.mass <= 0 or link not in frames:
+    pivots = _articulated(robot, frames, masses)
+    compliance = {robot.root: np.zeros((6, 6))}
+    found = {}
+    for joint in _tree(robot)[1]:
+        shift = _force_shift(frames[joint.child][:3, 3] - frames[joint.parent][:3, 3])
+        seen = exact.matmul(exact.matmul(shift.T, compliance[joint.parent]), shift)  # at the child's origin
+        if not joint.movable:
+            compliance[joint.child] = seen
             continue
-        rotation = frames[link][:3, :3]
-        centre = frames[link][:3, 3] + exact.matmul(rotation, np.array(inertial.com).reshape(3, 1)).reshape(3)
-        world = exact.matmul(exact.matmul(rotation, _tensor(inertial)), rotation.T)
-        chain, name = [], link
-        while name in parent_joint:  # the joints that move this link
-            joint = parent_joint[name]
-            if joint.name in index:
-                chain.append(joint.name)
-            name = joint.parent
-        jacobian = {}
-        for joint_name in chain:
-            kind, axis, origin = columns[joint_name]
-            if kind == "prismatic":
-                jacobian[joint_name] = (axis, np.zeros(3))
-            else:
-                jacobian[joint_name] = (_cross(axis, centre - origin), axis)
-        for a in chain:
-            for b in chain:
-                (va, wa), (vb, wb) = jacobian[a], jacobian[b]
-                spin = _dot(wa, exact.matmul(world, wb.reshape(3, 1)).reshape(3))
-                matrix[index[a]][index[b]] += inertial.mass * _dot(va, vb) + spin
-    return names, matrix
-
-
-def inverse_diagonal(matrix: list[list[float]], floor: float = 1e-12) -> list[float]:
-    """The diagonal of the inverse of a symmetric positive semi-definite matrix, by Gauss-Jordan elimination in
-    scalar arithmetic (the same bits on every CPU); a pivot below ``floor`` is raised to it (a joint that moves
-    nothing with mass)."""
-    n = len(matrix)
-    work = [[*row, *(1.0 if i == j else 0.0 for j in range(n))] for i, row in enumerate(matrix)]
-    for col in range(n):
-        pivot = max(work[col][col], floor)
-        work[col][col] = pivot
-        for j in range(2 * n):
-            work[col][j] = work[col][j] / pivot if j != col else 1.0
-        for row in range(n):
-            if row != col and work[row][col] != 0.0:
-                factor = work[row][col]
-                for j in range(2 * n):
-                    work[row][j] -= factor * work[col][j]
-    return [work[i][n + i] for i in range(n)]
+        u, d = pivots[joint.name]
+        s = _motion(joint, frames[joint.child])
+        found[joint.name] = 1.0 / d + _dot(u, exact.matmul(seen, u.reshape(6, 1)).reshape(6)) / (d * d)
+        project = np.eye(6) - np.outer(u, s) / d
+        compliance[joint.child] = exact.matmul(exact.matmul(project.T, seen), project) + np.outer(s, s) / d
+    return {j.name: found[j.name] for j in robot.joints if j.name in found}

@@ -23,7 +23,7 @@ from lxml import etree
 
 from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.drives import STIFF_AT, Drive, cap_stiffness, size_drive
-from svhdesc.compiler.loads import Load, inverse_diagonal, joint_loads, link_frames, mass_matrix
+from svhdesc.compiler.loads import Load, joint_loads, link_frames, mobilities
 from svhdesc.compiler.stages.inertials import cylinder_inertial, shape_of
 from svhdesc.core import exact
 from svhdesc.core.frames import pose_matrix
@@ -340,8 +340,7 @@ def _drives(
     unrated = {j.name for j in arm if min(j.effort, j.velocity) <= 0}
     loads: dict[str, Load] = worst_loads(robot, home, masses, unrated)
     drives = {j.name: size_drive(j.type, j.effort, j.velocity, loads.get(j.name)) for j in arm}
-    names, matrix = mass_matrix(robot, home, masses)
-    mobility = dict(zip(names, inverse_diagonal(matrix)))
+    mobility = mobilities(robot, home, masses)
     fixed = sum(kp * mobility.get(name, 0.0) * timestep**2 for name, kp in channel_kp.items())
     damping = {j.name: _damping(j, drives[j.name]) for j in arm}
     return cap_stiffness(drives, mobility, timestep, damping, fixed)

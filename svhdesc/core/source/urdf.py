@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import bisect
+import functools
 import math
 import re
 import warnings
@@ -59,37 +61,67 @@ def _sized(geometry: Geometry, where: str) -> Geometry | None:
     return geometry
 
 
+@dataclass(frozen=True)
+class _Text:
+    """A source file's text, where its lines start, and each tag's elements by name: read once per version."""
+
+    text: str
+    starts: tuple[int, ...]  # offsets of the lines' first characters
+    names: dict[tuple[str, str], tuple[int, ...]]  # (tag, name) -> offsets of the elements' '<'
+
+    def line(self, offset: int) -> int:
+        return bisect.bisect_right(self.starts, offset)
+
+
+@functools.lru_cache(maxsize=64)
+def _indexed(file: Path, version: tuple[int, int]) -> _Text:
+    text = file.read_text(encoding="utf-8", errors="replace")
+    starts = (0, *(m.end() for m in re.finditer("\n", text)))
+    names: dict[tuple[str, str], list[int]] = {}
+    for tag in re.finditer(r"<[\w:.-]+\b[^>]*", text):  # every name= in a tag's attributes, as locate matches them
+        for attribute in re.finditer(r'\bname="([^"]*)"', tag.group(0)):
+            key = (tag.group(0)[1:].split(None, 1)[0], attribute.group(1))
+            names.setdefault(key, []).append(tag.start())
+    return _Text(text, starts, {key: tuple(offsets) for key, offsets in names.items()})
+
+
+def _texts(files: Sequence[Path]) -> list[tuple[Path, _Text]]:
+    """The files that can be read, each indexed once per (mtime, size): a URDF of 10,000 links asks 20,000 times."""
+    found = []
+    for file in files:
+        try:
+            stat = file.stat()
+            found.append((file, _indexed(file, (stat.st_mtime_ns, stat.st_size))))
+        except OSError:
+            continue
+    return found
+
+
 def locate(files: Sequence[Path], tag: str, name: str | None, fallback: Path, nth: int = 1) -> str:
     """``file:line`` of the element ``<tag name=...>`` that expanded to ``name`` (xacro keeps no lines).
 
-    Tries the literal name, then a macro-built one ending in the same suffix (``${prefix}_j3``), then a
-    macro call passing that suffix (``<xacro:svh_fixed name="f2"``). ``nth``: the nth such element
-    (the second of a duplicate), else the last one found.
+    Tries the literal name (from an index of each file, built once), then a macro-built one ending in the same
+    suffix (``${prefix}_j3``), then a macro call passing that suffix (``<xacro:svh_fixed name="f2"``). ``nth``: the
+    nth such element (the second of a duplicate), else the last one found.
     """
-    if name:
-        tails = [name] + [name[i + 1 :] for i in range(1, len(name)) if name[i] == "_"]
-        patterns = (
-            [re.compile(rf'<{tag}\b[^>]*\bname="{re.escape(name)}"')]
-            + [re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}_?{re.escape(tail)}"') for tail in tails[1:]]
-            + [re.compile(rf'<xacro:\w+\b[^>]*\bname="{re.escape(tail)}"') for tail in tails[1:]]
-            # a macro call passing the whole name in any argument (<xacro:ur5_body link="upper_arm_link" ...>)
-            + [re.compile(rf'<xacro:\w+\b[^>]*\b[\w-]+="{re.escape(name)}"')]
-        )
-        texts = []
-        for file in files:
-            try:
-                texts.append((file, file.read_text(encoding="utf-8", errors="replace")))
-            except OSError:
-                continue
-        for pattern in patterns:  # over the whole text: a tag may spread its attributes over lines (the double
-            # pendulum writes <joint, name= and type= on lines of their own); the line is the tag's own
-            found = [
-                f"{file}:{text.count(chr(10), 0, match.start()) + 1}"
-                for file, text in texts
-                for match in pattern.finditer(text)
-            ]
-            if found:
-                return found[min(nth, len(found)) - 1]
+    if not name:
+        return str(fallback)
+    texts = _texts(files)
+    found = [f"{file}:{text.line(offset)}" for file, text in texts for offset in text.names.get((tag, name), ())]
+    if found:
+        return found[min(nth, len(found)) - 1]
+    tails = [name[i + 1 :] for i in range(1, len(name)) if name[i] == "_"]
+    patterns = (
+        [re.compile(rf'<{tag}\b[^>]*\bname="\$\{{[^}}"]+\}}_?{re.escape(tail)}"') for tail in tails]
+        + [re.compile(rf'<xacro:\w+\b[^>]*\bname="{re.escape(tail)}"') for tail in tails]
+        # a macro call passing the whole name in any argument (<xacro:ur5_body link="upper_arm_link" ...>)
+        + [re.compile(rf'<xacro:\w+\b[^>]*\b[\w-]+="{re.escape(name)}"')]
+    )
+    for pattern in patterns:  # over the whole text: a tag may spread its attributes over lines (the double
+        # pendulum writes <joint, name= and type= on lines of their own); the line is the tag's own
+        found = [f"{file}:{text.line(match.start())}" for file, text in texts for match in pattern.finditer(text.text)]
+        if found:
+            return found[min(nth, len(found)) - 1]
     return str(fallback)
 
 
@@ -100,13 +132,13 @@ def _written_at(text: str, where: str) -> str:
     if match is None:
         return where
     file, start, what = Path(match.group(1)), int(match.group(2)), match.group(3)
-    try:
-        lines = file.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError:
+    texts = _texts([file])
+    if not texts:
         return where
-    quoted = f'"{text}"'
-    found = next((n for n in range(start, len(lines) + 1) if quoted in lines[n - 1]), None)
-    return f"{file}:{found}: {what}" if found is not None else where
+    indexed = texts[0][1]
+    begin = indexed.starts[start - 1] if 0 < start <= len(indexed.starts) else len(indexed.text)
+    at = indexed.text.find(f'"{text}"', begin)
+    return f"{file}:{indexed.line(at)}: {what}" if at >= 0 else where
 
 
 def _pose(element: etree._Element | None, where: str) -> Pose:
