@@ -13,6 +13,7 @@ import numpy as np
 from svhdesc.errors import SvhdescError
 
 _PREPROCESS_MODES = ("auto", "on", "off")
+MAX_PREPROCESS_RESOLUTION = 1000  # CoACD's: above it, 'this is probably a bug' and std::terminate
 
 
 class DecompParamsError(SvhdescError, ValueError):
@@ -62,6 +63,11 @@ class DecompParams:
             object.__setattr__(self, name, int(value))
             if value < low:
                 raise DecompParamsError(f"decomposition parameter {name!r} must be >= {low}, got {value}")
+        if self.preprocess_resolution > MAX_PREPROCESS_RESOLUTION:  # CoACD aborts the process above it
+            raise DecompParamsError(
+                f"decomposition parameter 'preprocess_resolution' must be <= {MAX_PREPROCESS_RESOLUTION} "
+                f"(CoACD's limit), got {self.preprocess_resolution}"
+            )
         if self.max_convex_hull == 0:
             raise DecompParamsError("decomposition parameter 'max_convex_hull' must be >= 1 or -1 (no cap)")
         if self.seed >= 2**32:

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import concurrent.futures
+import math
 import multiprocessing
 import os
+import resource
 import sys
 from collections import Counter
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import trimesh
 
@@ -16,15 +19,45 @@ from svhdesc.compiler.decompose.coacd_run import _decompose_stl
 from svhdesc.compiler.decompose.keys import _key_from_stl
 from svhdesc.compiler.decompose.params import DecompParams
 from svhdesc.core.source.meshes import mesh_from_stl, stl_bytes
+from svhdesc.errors import SvhdescError
+
+# --------------------------------------------------------------------------- limits
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What one CoACD worker may use: CPU seconds for each mesh (the kernel stops it past them, SIGXCPU) and address
+    space (past it, an allocation fails). CoACD's own defaults took 135 s on the SVH palm; the presets take < 10 s."""
+
+    seconds: int = 600
+    memory: int = 4 << 30  # bytes
+
+    def said(self) -> str:
+        return f"{self.seconds} s of CPU a mesh, {self.memory / 2**30:g} GiB of memory a worker"
+
+
+LIMITS = Limits()
 
 # --------------------------------------------------------------------------- parallel
 
 
-def _init_worker(parent: int = 0) -> None:
+def _init_worker(parent: int = 0, memory: int = 0) -> None:
     # One OpenMP thread per worker: the pool already fills the cores, and oversubscribing them
     # only slows every job.  Works because the worker imports CoACD lazily, after this.
     os.environ["OMP_NUM_THREADS"] = "1"
     die_with_parent(parent)
+    if memory:
+        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+
+
+def _cpu_budget(seconds: int) -> None:
+    """Let this worker use ``seconds`` more of CPU from now: the next job's share (RLIMIT_CPU counts a process's
+    whole life; the kernel sends SIGXCPU past the soft limit, which ends the worker)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    used = math.ceil(usage.ru_utime + usage.ru_stime)
+    hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+    soft = used + seconds if hard == resource.RLIM_INFINITY else min(used + seconds, hard)
+    resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
 
 
 PR_SET_PDEATHSIG = 1
@@ -72,12 +105,14 @@ def parallel_decompose(
     force: bool = False,
     progress: bool = False,
     stats: Counter[str] | None = None,
+    limits: Limits = LIMITS,
 ) -> Results:
     """Decompose many meshes: hits come from the cache, misses run in ``n_jobs`` processes.
 
     Returns ``{name: (hulls, cache_hit)}`` in job order.  Results do not depend on ``n_jobs``
     (each is a function of its key alone); jobs with equal keys are decomposed once.
-    ``n_jobs <= 0`` means one process per CPU; 1 runs in this process without a pool.  Workers
+    ``n_jobs <= 0`` means one process per CPU.  CoACD runs in worker processes only, each under
+    ``limits`` (a mesh past them: one SvhdescError naming them and the meshes, nothing hangs).  Workers
     are spawned, so a calling script needs the usual ``if __name__ == "__main__":`` guard.
     ``stats`` (the caller's counter) gets ``decomposed`` += 1 for every CoACD run.
     """
@@ -99,13 +134,9 @@ def parallel_decompose(
             bar.step(job_name)
 
     workers = min(n_jobs if n_jobs > 0 else (os.cpu_count() or 1), len(pending))
-    if workers <= 1:
-        for key, (stl, params, job_names) in pending.items():
-            stats["decomposed"] += 1
-            finish(key, _run_job(job_names[0], stl, params))
-    elif pending:
+    if pending:  # in workers even for one mesh: only there can its time and memory be bounded
         stats["decomposed"] += len(pending)  # all submitted at once
-        _run_in_pool(pending, workers, finish)
+        _run_in_pool(pending, workers, finish, limits)
     return {name: results[name] for name in names}
 
 
@@ -129,24 +160,39 @@ def _pending(
     return pending
 
 
-def _run_in_pool(pending: Pending, workers: int, finish: Callable[[str, list[bytes]], None]) -> None:
+def _run_in_pool(
+    pending: Pending, workers: int, finish: Callable[[str, list[bytes]], None], limits: Limits = LIMITS
+) -> None:
     # spawn, not fork: CoACD's OpenMP/TBB runtimes are not fork-safe once initialised.
     ctx = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(
-        workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+        max(workers, 1), mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(), limits.memory)
     ) as pool:
-        futures = {pool.submit(_run_job, names[0], stl, params): key for key, (stl, params, names) in pending.items()}
+        futures = {
+            pool.submit(_run_job, names[0], stl, params, limits): key for key, (stl, params, names) in pending.items()
+        }
         try:
             for fut in concurrent.futures.as_completed(futures):
                 finish(futures[fut], fut.result())
+        except concurrent.futures.process.BrokenProcessPool:
+            left = sorted(pending[futures[f]][2][0] for f in futures if not f.done() or f.exception() is not None)
+            raise SvhdescError(
+                f"convex decomposition of {', '.join(map(repr, left))}: a CoACD worker was stopped past its limits "
+                f"({limits.said()})"
+            ) from None
         except BaseException:
             for fut in futures:
                 fut.cancel()
             raise
 
 
-def _run_job(name: str, stl: bytes, params: DecompParams) -> list[bytes]:
+def _run_job(name: str, stl: bytes, params: DecompParams, limits: Limits = LIMITS) -> list[bytes]:
+    _cpu_budget(limits.seconds)
     try:
         return _decompose_stl(stl, params)
+    except MemoryError:
+        raise SvhdescError(
+            f"convex decomposition of {name!r}: out of memory under its limit ({limits.said()})"
+        ) from None
     except Exception as exc:
         raise RuntimeError(f"convex decomposition of {name!r} failed: {exc}") from exc
