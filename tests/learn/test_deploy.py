@@ -234,3 +234,11 @@ def test_deploy_without_ros2_names_only_deploys_own_options(policy: Path, tmp_pa
     assert result.returncode == 2 and len(errors) == 1 and "Traceback" not in result.stderr, result.stderr
     assert ".venv-ros2/bin/svhdesc deploy TASK --policy F" in errors[0] and "--ros2" not in errors[0], errors[0]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_cli_offers_the_paths_the_policy_node_has() -> None:
+    from svhdesc.cli import deploy_command
+    from svhdesc.learn.deploy import VIA
+
+    via = next(p for p in deploy_command.params if p.name == "via")
+    assert list(via.type.choices) == list(VIA) and via.default == VIA[0]  # the default: SCHUNK's configuration
