@@ -5,12 +5,13 @@ time and an address-space limit; past either, one error naming the limit, and no
 
 Seeded faults: ``bounded`` running ``work()`` in this process (the time cases run until the test's own 60 s guard
 kills them: each case runs in a process of its own under that guard and 4 GiB; the memory case is a MemoryError
-without the limit named), no RLIMIT_AS in the child (the 10 GB string fails at the test's 4 GiB, not at 1 GiB: the
-message names no limit).
+traceback; the child's pid is this one's), no RLIMIT_AS in the child (the limit the child reports is not its
+parent's size plus 1 GiB).
 """
 
 from __future__ import annotations
 
+import os
 import resource
 import subprocess
 import sys
@@ -19,12 +20,14 @@ from pathlib import Path
 
 import pytest
 
+from svhdesc.core.source.xacro import bounded
+
 HEAD = '<?xml version="1.0"?>\n<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
 CASES = {
     # a number of 9**9**9: 370 million digits, minutes of CPU in one C call
     "power": '<xacro:property name="big" value="${9**9**9}"/>\n<link name="l${big}"/>\n',
     # a string of 10 GB
-    "string": "<xacro:property name=\"big\" value=\"${'x' * 10**10}\"/>\n<link name=\"l${big}\"/>\n",
+    "string": '<xacro:property name="big" value="${\'x\' * 10**10}"/>\n<link name="l${big}"/>\n',
     # a macro calling itself twice a level, 40 levels deep: 2**40 links
     "doubling": (
         '<xacro:macro name="two" params="n">\n'
@@ -91,3 +94,16 @@ def test_the_cli_answers_one_line(tmp_path: Path) -> None:
     assert done.returncode == 2, (done.stdout, done.stderr)
     assert done.stderr.startswith("error: ") and "out of memory at its limit of 2 GiB" in done.stderr, done.stderr
     assert "Traceback" not in done.stderr
+
+
+def _own_limit() -> tuple[int, int]:
+    return os.getpid(), resource.getrlimit(resource.RLIMIT_AS)[0]
+
+
+def test_the_child_is_bounded() -> None:
+    """The work runs in another process whose address space is its parent's size plus the limit given."""
+    with open("/proc/self/status") as status:
+        size = int(next(line.split()[1] for line in status if line.startswith("VmSize:"))) << 10
+    pid, limit = bounded(_own_limit, "test", 10, 1 << 30)
+    assert pid != os.getpid()
+    assert size + (1 << 30) - (256 << 20) < limit < size + (1 << 30) + (256 << 20), (size, limit)
