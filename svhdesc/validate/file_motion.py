@@ -115,6 +115,12 @@ class _Run:
         mujoco.mj_copyData(self.data, self.compiled.model, self.rest)
         mujoco.mj_forward(self.compiled.model, self.data)
 
+    def diverged(self) -> bool:
+        """Whether the last stroke went non-finite (MuJoCo resets the state then, warning BADQACC)."""
+        import mujoco
+
+        return self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0 or not np.all(np.isfinite(self.data.qpos))
+
     def together(self, leaders: list[_Leader], end: str) -> list[bool]:
         """Every leader to its ``end`` at once: whether each got there."""
         model = self.compiled.model
@@ -231,7 +237,12 @@ def range_of_motion(
     run = _Run(compiled, rest, label, mujoco.MjData(model), _pinned(model, rest))
     findings, notes, alone = [], [f"'{j}' left out: {why}" for j, why in left_out.items()], 0
     for end in ("upper", "lower"):
-        for leader, got in zip(leaders, run.together(leaders, end)):
+        reached = run.together(leaders, end)
+        if run.diverged():  # each stroke alone would diverge again, at full length: one finding, no more strokes
+            file, _ = compiled.where("model", "")
+            message = f"the model diverges while its servos drive every joint to its {end} end from {label}"
+            return CheckResult(CHECK, "fail", [Finding(CHECK, file, None, f"{message} (see model_test, settle)")])
+        for leader, got in zip(leaders, reached):
             if got:
                 continue
             alone += 1

@@ -26,10 +26,19 @@ import numpy as np
 
 from svhdesc.validate.compile_file import Compiled, quiet_mujoco
 from svhdesc.validate.file_motion import CHECK, range_of_motion
+from svhdesc.validate.file_velocity import velocity_tracking
 from svhdesc.validate.findings import CheckResult, Finding
 from svhdesc.validate.poses import contact_pairs, is_position_servo, rest_state, set_pose
 
-FULL_CHECKS = ("model_test", "settle", "rest_contacts", "equality_tracking", "gravity_hold", "range_of_motion")
+FULL_CHECKS = (
+    "model_test",
+    "settle",
+    "rest_contacts",
+    "equality_tracking",
+    "gravity_hold",
+    "range_of_motion",
+    "velocity_tracking",
+)
 MODEL_TEST_SECONDS = 1.0  # Menagerie's _MAX_SIM_TIME
 SETTLE_SECONDS = 1.0
 MIN_STEPS = 50  # a run is this many steps at least: at a timestep of 0.1 s, 1 s is ten steps, too few to diverge
@@ -119,7 +128,46 @@ def settle(compiled: Compiled, watch: _Watch) -> CheckResult:
             break
     speed = float(np.max(np.abs(data.qvel))) if compiled.model.nv else 0.0
     what = f"{steps * compiled.model.opt.timestep:g} s from {pose}, |qvel| {speed:.3g} at the end"
-    return _run_result(compiled, "settle", data, watch, what)
+    result = _run_result(compiled, "settle", data, watch, what)
+    if watch.nonfinite_at is None and np.all(np.isfinite(data.qpos)):
+        result.findings += _through_floor(compiled, data, what)
+        result.status = "fail" if result.findings else result.status
+    return result
+
+
+def _through_floor(compiled: Compiled, data, what: str) -> list[Finding]:  # type: ignore[no-untyped-def]
+    """A floating robot (a free joint with an actuated joint below it) whose centre of mass ends below a floor (a
+    plane of the world's) it started above: its geometry does not collide with the floor."""
+    import mujoco
+
+    model = compiled.model
+    planes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    free = np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
+    actuated = {int(model.jnt_bodyid[model.actuator_trnid[i, 0]]) for i in range(model.nu)}
+    robots = [
+        int(model.jnt_bodyid[j]) for j in free if any(_below(model, b, int(model.jnt_bodyid[j])) for b in actuated)
+    ]
+    if not planes or not robots:
+        return []
+    start, _ = rest_state(model, compiled.key)
+    mujoco.mj_forward(model, start)
+    found = []
+    for body, plane in ((b, g) for b in robots for g in planes):
+        normal, origin = data.geom_xmat[plane].reshape(3, 3)[:, 2], data.geom_xpos[plane]
+        after = float((data.subtree_com[body] - origin) @ normal)
+        if float((start.subtree_com[body] - origin) @ normal) > 0 > after:
+            name, floor = model.body(body).name, model.geom(plane).name or f"plane {plane}"
+            file, line = compiled.where("body", name)
+            fell = f"body '{name}' falls through the floor '{floor}': its centre of mass ends {-after:.3g} m below it"
+            why = "its geometry does not collide with the floor: contype, conaffinity"
+            found.append(Finding("settle", file, line, f"{fell} after {what} ({why})"))
+    return found
+
+
+def _below(model, body: int, ancestor: int) -> bool:  # type: ignore[no-untyped-def]
+    while body > 0 and body != ancestor:
+        body = int(model.body_parentid[body])
+    return body == ancestor
 
 
 def rest_contacts(compiled: Compiled) -> CheckResult:
@@ -335,6 +383,7 @@ def run_full_checks(compiled: Compiled) -> list[CheckResult]:
         results = [model_test(compiled, watch), settle(compiled, watch), rest_contacts(compiled)]
         results += [equality_tracking(compiled, watch), gravity_hold(compiled)]
         results.append(range_of_motion(compiled, *joint_quirks(compiled)))
+        results.append(velocity_tracking(compiled))
     return results
 
 

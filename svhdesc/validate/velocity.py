@@ -21,13 +21,14 @@ RUN = 1.0  # s per direction
 TOLERANCE = 0.05  # of the commanded velocity
 
 
-def tracked(model: Any, actuator: int, command: float) -> float:
-    """The joint's mean velocity over the last half of RUN s at ``command`` (from home, the others held)."""
+def tracked(model: Any, actuator: int, command: float, key: int | None = None) -> float:
+    """The joint's mean velocity over the last half of RUN s at ``command`` (from keyframe ``key``, else home, the
+    others held)."""
     import mujoco
 
     data = mujoco.MjData(model)
-    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if home >= 0:
+    home = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home") if key is None else key
+    if home >= 0 and model.nkey:
         mujoco.mj_resetDataKeyframe(model, data, home)
     data.ctrl[actuator] = command
     dof = int(model.jnt_dofadr[model.actuator_trnid[actuator, 0]])

@@ -1,5 +1,5 @@
-"""range_of_motion on robot files as they stand (`svhdesc validate PATH`, full tier), the settings' keyframe and
-joints' quirks, and a xacro including a FIFO.
+"""range_of_motion, settle's floor and velocity_tracking on robot files as they stand (`svhdesc validate PATH`, full
+tier), the settings' keyframe and joints' quirks, and a xacro including a FIFO.
 
 Clean robots: the three-joint arm with a sliding finger of tests/data/arm3 (an MJCF), and example-robot-data's PR2
 gripper (its palm and fingers, read where pip put the package; the copy written to tmp_path is pruned to them), whose
@@ -8,7 +8,9 @@ third false alarm). Seeded faults: a servo range past its joint's limit, which i
 at the joint's line);
 the arm's post moved into its way (a note naming the pose and the pair); a keyframe name the model lacks, a joint
 the settings name that the model lacks, an effort that is not > 0 (each one error, exit 2); a weak shoulder whose
-settings' effort rates it (gravity_hold passes then); a xacro including a FIFO (one error, exit 2, no hang).
+settings' effort rates it (gravity_hold passes then); a xacro including a FIFO (one error, exit 2, no hang); a
+floating robot whose geoms collide with nothing (it falls through its floor: settle); a wheel's velocity servo
+against damping as large as its gain (velocity_tracking, 50 % slow).
 """
 
 from __future__ import annotations
@@ -187,3 +189,80 @@ def test_a_xacro_including_a_fifo_is_refused_not_waited_on(tmp_path: Path) -> No
         f"error: {tmp_path / 'robot.urdf.xacro'}: includes {tmp_path / 'pipe.xacro'}, which is not a regular file "
         "(a FIFO, a device, a folder)"
     )
+
+
+FLOATING = """<mujoco model="hopper">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="torso" pos="0 0 0.3">
+      <freejoint/>
+      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="2"/>
+      <body name="leg" pos="0 0 -0.05">
+        <joint name="hip" axis="0 1 0" range="-0.5 0.5"/>
+        <geom name="leg" type="capsule" fromto="0 0 0 0 0 -0.2" size="0.02" mass="0.3"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="hip" joint="hip" kp="50" kv="2" ctrlrange="-0.5 0.5" forcerange="-20 20"/>
+  </actuator>
+  <keyframe>
+    <key name="stand" qpos="0 0 0.3 1 0 0 0 0" ctrl="0"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def test_a_floating_robot_falling_through_its_floor_fails_settle(tmp_path: Path) -> None:
+    """The hopper lands on its floor from its keyframe and settles; seeded fault: its geoms collide with nothing
+    (contype 0, as a visual-only class writes them), so it falls through the floor, at the floating body's line.
+    range_of_motion holds the floating base where it rests while the hip moves."""
+    clean = tmp_path / "hopper.xml"
+    clean.write_text(FLOATING)
+    report = validate_file(clean, FULL, {}, tier="full")
+    assert _check(report, "settle").status == "pass" and _check(report).status == "pass", report.checks
+    faulty = tmp_path / "ghost.xml"
+    faulty.write_text(
+        FLOATING.replace('mass="2"/>', 'mass="2" contype="0" conaffinity="0"/>').replace(
+            'mass="0.3"/>', 'mass="0.3" contype="0" conaffinity="0"/>'
+        )
+    )
+    (finding,) = _check(validate_file(faulty, FULL, {}, tier="full"), "settle").findings
+    assert finding.message.startswith("body 'torso' falls through the floor 'floor'"), finding
+    assert finding.line == 5 and "contype, conaffinity" in finding.message
+
+
+WHEEL = """<mujoco model="cart">
+  <compiler angle="radian"/>
+  <option integrator="implicitfast"/>
+  <worldbody>
+    <body name="base" pos="0 0 0.5">
+      <geom type="box" size="0.1 0.05 0.02" mass="1"/>
+      <body name="wheel" pos="0 0.07 0">
+        <joint name="wheel" axis="0 1 0" damping="0.01"/>
+        <geom type="cylinder" size="0.05 0.01" euler="1.5708 0 0" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <velocity name="wheel" joint="wheel" kv="1" ctrlrange="-10 10"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_a_velocity_servo_too_weak_for_its_joint_fails_velocity_tracking(tmp_path: Path) -> None:
+    """The wheel turns at 5 rad/s when told (kv 1 against damping 0.01: 1 % slow); seeded fault: damping 1, as
+    much as the servo's gain, halves the speed, at the actuator's line. A URDF has no velocity servo: skipped."""
+    clean = tmp_path / "cart.xml"
+    clean.write_text(WHEEL)
+    check = _check(validate_file(clean, FULL | {"velocity_tracking"}, {}, tier="full"), "velocity_tracking")
+    assert check.status == "pass" and check.figure.startswith("1 velocity servo(s)"), check
+    faulty = tmp_path / "stiff.xml"
+    faulty.write_text(WHEEL.replace('damping="0.01"', 'damping="1"'))
+    findings = _check(
+        validate_file(faulty, FULL | {"velocity_tracking"}, {}, tier="full"), "velocity_tracking"
+    ).findings
+    assert [f.line for f in findings] == [14, 14], findings
+    assert "joint 'wheel' turns at 2.5" in findings[0].message and "off by 50" in findings[0].message
