@@ -14,10 +14,10 @@ export PATH=$venv/bin:$PATH AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv
 # The wheels' shared libraries (site-packages/ros_*.libs) for the generators' helper programs.
 LD_LIBRARY_PATH=$venv/lib:$(printf '%s:' "$site"/ros_*.libs)${LD_LIBRARY_PATH:-}
 export LD_LIBRARY_PATH
-for pkg in control_msgs controller_manager_msgs; do  # controller_manager_msgs needs nothing of control_msgs
+for pkg in control_msgs controller_manager_msgs tf2_msgs; do  # none needs another of these three
   cmake -S "svhdesc/ros2/interfaces/$pkg" -B "$build/$pkg" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_INSTALL_PREFIX="$venv" -DPython3_EXECUTABLE="$py" -DPYTHON_INSTALL_DIR="${site#"$venv"/}" \
     -DBUILD_TESTING=OFF >"$build/$pkg.log" 2>&1 || { cat "$build/$pkg.log" >&2; exit 1; }
   cmake --build "$build/$pkg" --target install >>"$build/$pkg.log" 2>&1 || { tail -50 "$build/$pkg.log" >&2; exit 1; }
 done
-"$py" -c 'import control_msgs.action, controller_manager_msgs.srv'
+"$py" -c 'import control_msgs.action, controller_manager_msgs.srv, tf2_msgs.msg'

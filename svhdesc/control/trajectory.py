@@ -25,6 +25,8 @@ from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, check_goal
 from svhdesc.control.spline import Point, State, Trajectory
 from svhdesc.errors import SvhdescError
 
+FLOAT_EPSILON = float(np.finfo(np.float32).eps)  # std::numeric_limits<float>::epsilon(), as Jazzy's JTC compares
+
 
 @dataclass(frozen=True)
 class Goal:
@@ -56,10 +58,11 @@ class Semantics:
     preempted_code: ErrorCode
     preempted_text: str
     holds_unnamed: bool
+    rejects_moving_end: bool = False  # allow_nonzero_velocity_at_trajectory_end false (Jazzy's default)
 
 
 NOETIC = Semantics(True, False, ErrorCode.SUCCESSFUL, "preempted by a new goal", False)
-JAZZY = Semantics(False, True, ErrorCode.INVALID_GOAL, "Current goal cancelled due to new incoming action.", True)
+JAZZY = Semantics(False, True, ErrorCode.INVALID_GOAL, "Current goal cancelled due to new incoming action.", True, True)
 
 
 class Status(enum.Enum):
@@ -156,6 +159,17 @@ def first_occurrences(goal: Goal | Rejection, joints: int) -> Goal | Rejection:
     return replace(goal, joint_names=[names[i] for i in keep], points=points)
 
 
+def moving_end(goal: Goal) -> Rejection | None:
+    """Jazzy's validate_trajectory_msg with allow_nonzero_velocity_at_trajectory_end false (its default): the last
+    point's velocities, where given, must be zero (within float's epsilon)."""
+    last = goal.points[-1]
+    for name, velocity in zip(goal.joint_names, last.velocities or ()):
+        if abs(velocity) > FLOAT_EPSILON:
+            text = f"Velocity of last trajectory point of joint {name} is not zero: {velocity:.15f}"
+            return Rejection(ErrorCode.INVALID_GOAL, text)
+    return None
+
+
 def due(now: float, when: float, timestep: float) -> bool:
     """Due within half a physics step: 0.02 s of steps never lands exactly on 0.02 in floating point."""
     return now >= when - 0.5 * timestep
@@ -206,6 +220,7 @@ class JointTrajectoryCore:
         self._limits = {j: hardware.limits(j) for j in self.joints}
         self._column = {j: k for k, j in enumerate(self.joints)}
         self._since = hardware.time  # when the current hold began (query_state before it fails)
+        self._trajectory: Trajectory | None = None  # what the joints follow (Jazzy's current_trajectory_); None: a hold
 
     @property
     def active_handle(self) -> Any:
@@ -216,12 +231,14 @@ class JointTrajectoryCore:
         """As JTC::starting: hold where the joints are."""
         self._hw.hold(self.joints)
         self._since = self._hw.time
+        self._trajectory = None
         self.running = True
 
     def stopping(self) -> None:
         """As JTC::stopping: the active goal is canceled (preempted); the joints hold."""
         self._preempt("the controller was stopped")
         self._hw.hold(self.joints)
+        self._trajectory = None
         self.running = False
 
     # -- goals, commands, cancel, queries -----------------------------------------------------
@@ -229,7 +246,7 @@ class JointTrajectoryCore:
         try:
             if len(set(goal.joint_names)) != len(goal.joint_names):
                 return Rejection(ErrorCode.INVALID_JOINTS, "internal: repeated names reach the check")
-            return check_goal(
+            rejection = check_goal(
                 goal.joint_names,
                 goal.points,
                 goal.stamp,
@@ -238,14 +255,19 @@ class JointTrajectoryCore:
                 self._allow_partial,
                 self._limits,
             )
+            if rejection is None and self.semantics.rejects_moving_end:
+                return moving_end(goal)
+            return rejection
         except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
             return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
 
     def _start(self, goal: Goal) -> Trajectory | Rejection:
         try:
-            return self._hw.follow(list(goal.joint_names), goal.points, None if goal.stamp == 0.0 else goal.stamp)
+            trajectory = self._hw.follow(list(goal.joint_names), goal.points, None if goal.stamp == 0.0 else goal.stamp)
         except (SvhdescError, TypeError, ValueError) as exc:
             return Rejection(ErrorCode.INVALID_GOAL, str(exc))
+        self._trajectory = trajectory
+        return trajectory
 
     def _preempt(self, why: str, code: ErrorCode = ErrorCode.SUCCESSFUL) -> None:
         if self._active is not None:
@@ -282,6 +304,7 @@ class JointTrajectoryCore:
             # As JointTrajectoryController: valid joints and no points stop the controller where it is.
             self._preempt("preempted by an empty goal")
             self._hw.hold(self.joints)
+            self._trajectory = None
             self.sink.accepted(handle)
             self.sink.finished(handle, Result(Status.SUCCEEDED, ErrorCode.SUCCESSFUL, "stopped: empty trajectory"))
             return None
@@ -322,6 +345,7 @@ class JointTrajectoryCore:
         # Every joint of the controller, not only the goal's: JTC's setHoldPosition (noetic) / set_hold_position
         # (Jazzy) hold all of them where they are; the joints a partial goal left out may still be on their way.
         self._hw.hold(self.joints)
+        self._trajectory = None
         self._active = None
         return True
 
@@ -334,6 +358,7 @@ class JointTrajectoryCore:
         if isinstance(goal, Goal) and not goal.points:
             self._preempt("stopped by an empty command")
             self._hw.hold(self.joints)
+            self._trajectory = None
             return None
         rejection = goal if isinstance(goal, Rejection) else self._check(goal)
         if rejection is None:
@@ -344,6 +369,42 @@ class JointTrajectoryCore:
             return rejection
         self._preempt("preempted by a command")
         return None
+
+    def topic(self, goal: Goal | Rejection) -> Rejection | None:
+        """Jazzy JTC's ``~/joint_trajectory`` (topic_callback, then update): checked as a goal is; a valid trajectory
+        replaces the one the joints follow (the joints it leaves out keep their last command, fill_partial_goal). An
+        active goal is not ended: Jazzy's update() goes on judging it (tolerances, feedback, success) against the
+        trajectory the topic brought. An inactive controller ignores the topic (subscriber_is_active_ false)."""
+        if not self.running:
+            return Rejection(ErrorCode.INVALID_GOAL, "the controller is not active: the trajectory is ignored")
+        goal = first_occurrences(goal, len(self.joints))
+        rejection = goal if isinstance(goal, Rejection) else self._check(goal)
+        started = self._start(goal) if isinstance(goal, Goal) and rejection is None else rejection
+        if isinstance(started, Rejection) or not isinstance(goal, Goal):
+            rejection = started if isinstance(started, Rejection) else rejection
+            assert rejection is not None
+            self.sink.warn(f"{self.name}/joint_trajectory: trajectory rejected: {rejection.reason}")
+            return rejection
+        assert started is not None
+        self._hold_unnamed(goal.joint_names)
+        if self._active is not None:
+            self._active.trajectory = started
+            self._active.joints = list(goal.joint_names)
+        return None
+
+    def sample_current(self, when: float) -> tuple[State | None, str]:
+        """Jazzy's ~/query_state: the desired state of every joint at ``when`` while the current trajectory runs;
+        else None and why (inactive, holding, before its start, at or after its end)."""
+        if not self.running:
+            return None, "Can't sample trajectory. Controller is not active."
+        trajectory = self._trajectory
+        if trajectory is None:
+            return None, "Currently there is no valid trajectory instance."
+        if when < trajectory.begin_time:
+            return None, "Requested sample time is earlier than the current trajectory start time."
+        if when >= trajectory.end_time:
+            return None, "Requested sample time precedes the current trajectory end time."
+        return self._hw.desired(self.joints, when), ""
 
     def query(self, when: float) -> State | str:
         """QueryTrajectoryState: the desired state at ``when``, or why it cannot be sampled."""
@@ -444,6 +505,7 @@ class JointTrajectoryCore:
         self._active = None
         if hold:
             self._hw.hold(self.joints)  # as a cancel: every joint of the controller
+            self._trajectory = None
         if code == ErrorCode.SUCCESSFUL:
             self.sink.finished(active.handle, Result(Status.SUCCEEDED, code, text))
         else:

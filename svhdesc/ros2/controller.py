@@ -20,6 +20,7 @@ from typing import Any
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.outbox import Outbox
 from svhdesc.control.trajectory import JAZZY, ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
+from svhdesc.control.work import Latest, on_sim_thread
 from svhdesc.model import ACTION
 from svhdesc.sim import Simulation
 
@@ -54,6 +55,9 @@ def stamp(time_class: Any, at: float) -> Any:
     return time_class(sec=whole, nanosec=nanoseconds)
 
 
+EFFORT = "Trajectories with effort fields are only supported for controllers using the 'effort' command interface."
+
+
 def trajectory_goal(request: Any, to_sim: Mapping[str, str]) -> Goal | Rejection:
     """A FollowJointTrajectory goal (ROS 2 joint names) as the core's Goal (simulation joint names)."""
 
@@ -61,11 +65,13 @@ def trajectory_goal(request: Any, to_sim: Mapping[str, str]) -> Goal | Rejection
         return to_sim.get(name, UNKNOWN + name)
 
     try:
-        trajectory = request.trajectory
+        goal = topic_goal(request.trajectory, to_sim)
+        if isinstance(goal, Rejection):
+            return goal
         return Goal(
-            [sim(n) for n in trajectory.joint_names],
-            points_of(trajectory.points, seconds),
-            seconds(trajectory.header.stamp),
+            goal.joint_names,
+            goal.points,
+            goal.stamp,
             {sim(t.name): t.position for t in request.path_tolerance},
             {sim(t.name): t.velocity for t in request.path_tolerance},
             {sim(t.name): t.position for t in request.goal_tolerance},
@@ -74,6 +80,21 @@ def trajectory_goal(request: Any, to_sim: Mapping[str, str]) -> Goal | Rejection
         )
     except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
         return Rejection(ErrorCode.INVALID_GOAL, f"malformed goal: {exc}")
+
+
+def topic_goal(trajectory: Any, to_sim: Mapping[str, str]) -> Goal | Rejection:
+    """A trajectory_msgs/JointTrajectory (a goal's, or one from ``~/joint_trajectory``) as the core's Goal; a point
+    with efforts is refused as Jazzy's JTC refuses it on a position-commanded controller."""
+    try:
+        if any(len(point.effort) for point in trajectory.points):
+            return Rejection(ErrorCode.INVALID_GOAL, EFFORT)
+        return Goal(
+            [to_sim.get(n, UNKNOWN + n) for n in trajectory.joint_names],
+            points_of(trajectory.points, seconds),
+            seconds(trajectory.header.stamp),
+        )
+    except (TypeError, ValueError, AttributeError) as exc:  # a malformed message
+        return Rejection(ErrorCode.INVALID_GOAL, f"malformed trajectory: {exc}")
 
 
 class _Goal:
@@ -136,6 +157,36 @@ class TrajectoryController(ForwardsToCore):
         self._feedback_message = FollowJointTrajectory.Feedback()
         self._state = node.create_publisher(JointTrajectoryControllerState, f"{name}/controller_state", 10)
         self._server = self._action_server(node, callback_group)
+        self._topic = self._subscribe(node, callback_group)
+        self._query = self._query_service(node, callback_group)
+
+    def _subscribe(self, node: Any, callback_group: Any) -> Any:
+        """``~/joint_trajectory`` as Jazzy's JTC subscribes it (system-default QoS). Each message is checked on
+        the executor's thread (a rejected one is logged there, as validate_trajectory_msg logs); a valid one waits
+        for the simulation thread in a slot that keeps only the newest (JTC's realtime buffer does the same)."""
+        from rclpy.qos import qos_profile_system_default
+        from trajectory_msgs.msg import JointTrajectory
+
+        latest = Latest(self._queue, self.on_topic)
+        self._topic_slot = latest
+
+        def received(message: Any) -> None:
+            goal = topic_goal(message, self._to_sim)
+            rejection = goal if isinstance(goal, Rejection) else self.core.check(goal)
+            if rejection is not None:
+                self._node.get_logger().error(
+                    f"{self.name}/joint_trajectory: rejected: {self._renamed(rejection.reason)}"
+                )
+                return
+            latest(goal)
+
+        return node.create_subscription(
+            JointTrajectory,
+            f"{self.name}/joint_trajectory",
+            received,
+            qos_profile_system_default,
+            callback_group=callback_group,
+        )
 
     def _action_server(self, node: Any, callback_group: Any) -> Any:
         from control_msgs.action import FollowJointTrajectory
@@ -152,6 +203,29 @@ class TrajectoryController(ForwardsToCore):
             callback_group=callback_group,
             **requests,
         )
+
+    def _query_service(self, node: Any, callback_group: Any) -> Any:
+        from control_msgs.srv import QueryTrajectoryState
+
+        return node.create_service(
+            QueryTrajectoryState, f"{self.name}/query_state", self._on_query, callback_group=callback_group
+        )
+
+    def _on_query(self, request: Any, response: Any) -> Any:
+        """Jazzy's query_state_service: every joint of the controller, sampled on the simulation thread."""
+        when = seconds(request.time)
+        answer = on_sim_thread(self._queue, lambda: self.core.sample_current(when))
+        state, why = answer if isinstance(answer, tuple) else (None, str(answer))
+        response.name = list(self._ros_names)
+        response.success = state is not None
+        if state is None:
+            response.message = why
+            self._node.get_logger().error(f"{self.name}: {why}")
+            return response
+        response.position = state.positions.tolist()
+        response.velocity = state.velocities.tolist()
+        response.acceleration = state.accelerations.tolist()
+        return response
 
     # -- rclpy's executor thread -------------------------------------------------------------
     def _on_goal_request(self, request: Any) -> Any:
@@ -191,6 +265,10 @@ class TrajectoryController(ForwardsToCore):
             self._resolve(goal, Status.CANCELED, ErrorCode.SUCCESSFUL, "")
             return
         self.core.submit(trajectory_goal(goal.goal_handle.request, self._to_sim), goal)
+
+    def on_topic(self, goal: Goal) -> None:
+        """A checked ``~/joint_trajectory`` message (the simulation thread: checked again, time moved on)."""
+        self.core.topic(goal)
 
     def on_cancel(self, goal_handle: Any) -> None:
         active = self.core.active_handle

@@ -22,6 +22,7 @@ class Sink:
     def __init__(self) -> None:
         self.results: list[tuple[Any, Result]] = []
         self.events: list[tuple[str, Any]] = []
+        self.warned: list[str] = []
 
     def accepted(self, handle: Any) -> None:
         self.events.append(("accepted", handle))
@@ -36,7 +37,8 @@ class Sink:
 
     def state(self, sample: Sample) -> None: ...
 
-    def warn(self, text: str) -> None: ...
+    def warn(self, text: str) -> None:
+        self.warned.append(text)
 
 
 @pytest.fixture
