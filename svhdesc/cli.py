@@ -1217,6 +1217,21 @@ def _write_atomically(path: Path, text: str) -> None:
         raise SvhdescError(f"{path}: cannot write ({exc.strerror or exc})") from None
 
 
+@main.command("mjlab", context_settings={"ignore_unknown_options": True})
+@click.argument("action", type=click.Choice(["train", "play"]))
+@click.argument("task_id", metavar="TASK")
+@click.option(
+    "--variant", default=None, help="The robot from this built variant (name or folder); default: the task's."
+)
+@click.argument("args", nargs=-1, type=click.UNPROCESSED)
+@_friendly
+def mjlab_command(action: str, task_id: str, variant: str | None, args: tuple[str, ...]) -> None:
+    """mjlab's own train or play on Svh-Rotate or Ur5-Svh-Lift (needs svhdesc[mjlab]; docs/learning.md)."""
+    from svhdesc.mjlab.command import run
+
+    run(action, task_id, variant, args)
+
+
 def svhdesc_variants() -> list[str]:
     import svhdesc
 

@@ -40,6 +40,7 @@ EXTRA_OF: dict[str, tuple[str, str]] = {
     "jax": ("jax", "batch-mjx"),
     "ompl": ("ompl", "plan"),
     "ruckig": ("ruckig", "plan"),
+    "mjlab": ("mjlab", "mjlab"),
 }
 
 
@@ -59,6 +60,7 @@ COMMAND_EXTRA: dict[str, str] = {
     "sim": "sim",
     "compare": "engines",
     "plan": "plan",
+    "mjlab": "mjlab",
 }
 
 

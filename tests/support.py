@@ -246,3 +246,22 @@ def wheeled() -> Path:
         result = run_cli(*args, in_process=True)
         assert result.returncode == 0, result.stderr
     return out / "wheeled"
+
+
+def pytest_in_venv(python: Path, files: list[str], basetemp: Path, env: dict[str, str] | None = None) -> None:
+    """Run ``files`` with pytest in another venv's ``python`` (one process, no xdist): they must all pass there,
+    none skipped (a venv missing what they import would otherwise pass here by skipping there)."""
+    import re
+
+    result = subprocess.run(
+        [str(python), "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "--basetemp", str(basetemp), *files],
+        cwd=REPO,
+        env={**os.environ, **(env or {})},
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    summary = result.stdout.strip().splitlines()[-1] if result.stdout.strip() else result.stderr
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
+    assert re.search(r"\d+ passed", summary) and "skipped" not in summary, summary

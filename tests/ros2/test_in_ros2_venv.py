@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import re
-import subprocess
 from pathlib import Path
 
 import pytest
+
+from tests.support import pytest_in_venv
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = Path(os.environ.get("SVHDESC_ROS2_PYTHON", ROOT / ".venv-ros2" / "bin" / "python"))
@@ -24,14 +24,4 @@ pytestmark = pytest.mark.slow  # a pytest of its own in the other venv: a few se
 @pytest.mark.skipif(not PYTHON.is_file(), reason=f"no ROS 2 Python at {PYTHON} (bash tools/install.sh ros2)")
 def test_the_ros2_venv_tests_pass_there(tmp_path: Path) -> None:
     files = [str(Path(__file__).with_name(name)) for name in IN_ROS2_VENV]
-    result = subprocess.run(
-        [str(PYTHON), "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "--basetemp", str(tmp_path), *files],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
-    summary = result.stdout.strip().splitlines()[-1] if result.stdout.strip() else result.stderr
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
-    assert re.search(r"\d+ passed", summary) and "skipped" not in summary, summary
+    pytest_in_venv(PYTHON, files, tmp_path)
