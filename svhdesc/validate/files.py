@@ -199,6 +199,21 @@ def _read_robot(
     return root, (path.resolve(), *(f for f in files if f != path.resolve()))
 
 
+def _include_line(file: Path, name: str) -> int | None:
+    """The line of the first element of ``file`` whose filename ends with ``name`` (an <xacro:include>, a load_yaml
+    call in an attribute), or None."""
+    try:
+        root = etree.parse(str(file), _parser()).getroot()
+    except (etree.XMLSyntaxError, OSError):
+        return None
+    for element in root.iter():
+        if isinstance(element.tag, str) and any(
+            value.rstrip("')}\" ").endswith(name) for value in element.attrib.values()
+        ):
+            return element.sourceline
+    return None
+
+
 @contextmanager
 def _regular_inputs() -> Iterator[None]:
     """xacro's reads of the files a xacro includes (<xacro:include>, load_yaml) refused where the file is not a
@@ -211,7 +226,10 @@ def _regular_inputs() -> Iterator[None]:
             target = Path(os.path.join(xacro.root_dir, named)) if named else None
             if target is not None and target.exists() and not target.is_file():
                 by = next((f for f in reversed(xacro.filestack or []) if f and f != named), "the xacro")
-                raise SvhdescError(f"{by}: includes {target}, which is not a regular file (a FIFO, a device, a folder)")
+                where = f"{by}:{line}" if (line := _include_line(Path(by), target.name)) else by
+                raise SvhdescError(
+                    f"{where}: includes {target}, which is not a regular file (a FIFO, a device, a folder)"
+                )
             return read(*args)
 
         return guard

@@ -186,7 +186,7 @@ def test_a_xacro_including_a_fifo_is_refused_not_waited_on(tmp_path: Path) -> No
         pytest.fail("validate waited on the FIFO")
     assert result.returncode == 2 and result.stdout == "", result
     assert result.stderr.strip() == (
-        f"error: {tmp_path / 'robot.urdf.xacro'}: includes {tmp_path / 'pipe.xacro'}, which is not a regular file "
+        f"error: {tmp_path / 'robot.urdf.xacro'}:2: includes {tmp_path / 'pipe.xacro'}, which is not a regular file "
         "(a FIFO, a device, a folder)"
     )
 
