@@ -3,7 +3,7 @@
     python benchmarks/consumers.py [--variants svh_right,...] [--out docs/results]
 
 For each variant and each engine, in the environment that engine needs (its own interpreter: MuJoCo 3.17 and Newton's
-SolverMuJoCo in .venv-newton, MuJoCo 3.11 in .venv-mujoco311, Newton's own solvers beside MuJoCo 4 in .venv): does it
+SolverMuJoCo in .venv-newton, MuJoCo 3.11 in .venv-mjlab, Newton's own solvers beside MuJoCo 4 in .venv): does it
 load, how many degrees of freedom, how many of the spec's couplings it keeps, the mass, and one second of the same
 servo targets (60 % of each channel's range, gravity and contacts off) against MuJoCo C on the MJCF: the largest
 joint gap over the run and at its end, and the largest coupling residual. Then the same engines on broken copies of
@@ -43,7 +43,7 @@ class Consumer:
 CONSUMERS = (
     Consumer("MuJoCo C (reference)", "mujoco", sys.executable, ("mjcf",), "MuJoCo C"),
     Consumer("MuJoCo 3.17 (Newton's pin)", "mujoco", str(REPO / ".venv-newton/bin/python"), ("mjcf",), "MuJoCo C"),
-    Consumer("MuJoCo 3.11 (mjlab's pin)", "mujoco", str(REPO / ".venv-mujoco311/bin/python"), ("mjcf",), "MuJoCo C"),
+    Consumer("MuJoCo 3.11 (mjlab's pin)", "mujoco", str(REPO / ".venv-mjlab/bin/python"), ("mjcf",), "MuJoCo C"),
     Consumer("Newton", "newton", sys.executable, ("usd", "mjcf", "urdf"), "featherstone"),
     Consumer("Newton", "newton", str(REPO / ".venv-newton/bin/python"), ("usd", "mjcf", "urdf"), "mujoco"),
 )

