@@ -266,3 +266,19 @@ def test_a_velocity_servo_too_weak_for_its_joint_fails_velocity_tracking(tmp_pat
     ).findings
     assert [f.line for f in findings] == [14, 14], findings
     assert "joint 'wheel' turns at 2.5" in findings[0].message and "off by 50" in findings[0].message
+
+
+def test_svhdesc_yaml_carries_keyframe_and_joints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An svhdesc.yaml's validate: section takes the same keys (its faults at the YAML's line); a URDF names no
+    keyframe (its rest pose is pose = {...}), and one given is an error."""
+    _arm(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "svhdesc.yaml").write_text("validate:\n  keyframe: home\n  joints:\n    wrist: {effort: 0}\n")
+    refused = run_cli("validate", "arm3.xml", "--tier", "static", in_process=True)
+    assert refused.returncode == 2 and refused.stderr.startswith("error: svhdesc.yaml:4: joint 'wrist'"), refused
+    (tmp_path / "svhdesc.yaml").write_text("validate:\n  keyframe: home\n  joints:\n    wrist: {tolerance: 0.2}\n")
+    assert run_cli("validate", "arm3.xml", in_process=True).returncode == 0
+    urdf = tmp_path / "one.urdf"
+    urdf.write_text('<robot name="one"><link name="base"/></robot>\n')
+    with pytest.raises(SvhdescError, match="a URDF has no keyframes"):
+        validate_file(urdf, FULL, {}, tier="full", quirks=Quirks(keyframe="home"))
