@@ -34,7 +34,7 @@ REPO = Path(__file__).resolve().parents[1]
 @dataclass(frozen=True)
 class Consumer:
     label: str
-    engine: str  # what svhdesc.loaders.track runs: mujoco or newton
+    engine: str  # what svhdesc.loaders.track runs: mujoco, mjlab or newton
     python: str  # the interpreter of its environment
     files: tuple[str, ...]
     solver: str = "featherstone"
@@ -46,6 +46,10 @@ CONSUMERS = (
     Consumer("MuJoCo 3.11 (mjlab's pin)", "mujoco", str(REPO / ".venv-mjlab/bin/python"), ("mjcf",), "MuJoCo C"),
     Consumer("Newton", "newton", sys.executable, ("usd", "mjcf", "urdf"), "featherstone"),
     Consumer("Newton", "newton", str(REPO / ".venv-newton/bin/python"), ("usd", "mjcf", "urdf"), "mujoco"),
+    # mjlab's entity (svhdesc.mjlab: the variant's batch model, mjlab's solver options) compiled by mjlab
+    Consumer(
+        "mjlab 1.6 (svhdesc.mjlab's entity)", "mjlab", str(REPO / ".venv-mjlab/bin/python"), ("mjcf",), "MuJoCo C"
+    ),
 )
 SOLVERS = {"featherstone": "Featherstone (Warp CPU)", "mujoco": "SolverMuJoCo (MuJoCo C 3.17)", "MuJoCo C": "-"}
 COLUMNS = (
@@ -115,6 +119,15 @@ def broken_files(folder: Path, variant: str) -> dict[str, Path]:
     return {file: folder / name for file, (name, _) in texts.items()}
 
 
+def as_variant(mjcf: Path) -> Path:
+    """The broken MJCF as a built variant's folder holds it (model and batch model), which mjlab's entity reads."""
+    folder = mjcf.parent / mjcf.stem
+    folder.mkdir(exist_ok=True)
+    for name in (f"{mjcf.stem}.xml", f"{mjcf.stem}_batch.xml"):
+        (folder / name).write_text(mjcf.read_text())
+    return folder / f"{mjcf.stem}.xml"
+
+
 def bad_input_rows(variant: str) -> list[list[str]]:
     plan = servo_plan(str(svhdesc.get(variant).mjcf_path))
     rows = []
@@ -122,7 +135,8 @@ def bad_input_rows(variant: str) -> list[list[str]]:
         broken = broken_files(Path(folder), variant)
         for consumer in CONSUMERS:
             for file in consumer.files:
-                run = run_in(consumer.python, consumer.engine, file, str(broken[file]), plan, consumer.solver)
+                path = as_variant(broken[file]) if consumer.engine == "mjlab" else broken[file]
+                run = run_in(consumer.python, consumer.engine, file, str(path), plan, consumer.solver)
                 verdict = f"no: {run.error}" if run.error else "yes (a broken file was read)"
                 rows.append(
                     [consumer.label, run.version, SOLVERS[consumer.solver], f"{file}: {broken[file].name}", verdict]

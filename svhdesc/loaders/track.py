@@ -76,8 +76,30 @@ def run_mujoco(path: str, plan: dict[str, Any], seconds: float = SECONDS) -> Run
     """MuJoCo (any version) on the MJCF with its own position servos."""
     import mujoco
 
-    run = Run("mujoco", mujoco.__version__, "mjcf", "MuJoCo C")
-    model = mujoco.MjModel.from_xml_path(path)
+    return _servo_run(
+        mujoco.MjModel.from_xml_path(path), Run("mujoco", mujoco.__version__, "mjcf", "MuJoCo C"), plan, seconds
+    )
+
+
+def run_mjlab(path: str, plan: dict[str, Any], seconds: float = SECONDS) -> Run:
+    """mjlab's entity of the variant whose MJCF is ``path`` (svhdesc.mjlab.entity: its batch model, with the solver
+    options mjlab sets on the scene's model), compiled by mjlab, stepped in MuJoCo C."""
+    from pathlib import Path
+
+    from mjlab.entity import Entity
+
+    from svhdesc.mjlab.entity import built, mujoco_cfg, robot_cfg
+
+    folder = Path(path).parent
+    model = Entity(robot_cfg(folder)).spec.compile()
+    mujoco_cfg(built(folder)).apply(model)
+    return _servo_run(model, Run("mjlab", _version("mjlab"), "mjcf", "MuJoCo C"), plan, seconds)
+
+
+def _servo_run(model: Any, run: Run, plan: dict[str, Any], seconds: float) -> Run:
+    """``model`` from qpos0, gravity and contacts off, each servo at the plan's target, recorded into ``run``."""
+    import mujoco
+
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
@@ -181,6 +203,8 @@ def run(engine: str, file: str, path: str, plan: dict[str, Any], solver: str, se
     try:
         if engine == "mujoco":
             return run_mujoco(path, plan, seconds)
+        if engine == "mjlab":
+            return run_mjlab(path, plan, seconds)
         return run_newton(path, file, plan, solver, seconds)
     except Exception as exc:  # the engine's own reason, whatever it raises, is the table's line
         reason = re.sub(r"pxrInternal_v\w+?__pxrReserved__::", "", " ".join(str(exc).split())) or type(exc).__name__
@@ -255,7 +279,7 @@ def _version(engine: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m svhdesc.loaders.track")
-    parser.add_argument("engine", choices=("mujoco", "newton"))
+    parser.add_argument("engine", choices=("mujoco", "mjlab", "newton"))
     parser.add_argument("file", choices=("mjcf", "urdf", "usd"))
     parser.add_argument("path")
     parser.add_argument("--plan", required=True, help="the servo plan (JSON), from servo_plan on the MJCF")
