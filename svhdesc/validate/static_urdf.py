@@ -147,19 +147,31 @@ def _repeated(source: UrdfSource) -> list[Finding]:
     return found
 
 
-def _cycles_and_roots(source: UrdfSource, names: dict[str, etree._Element], parent_of: dict[str, str]) -> list[Finding]:
-    found = []
+def _on_cycles(names: dict[str, etree._Element], parent_of: dict[str, str]) -> set[str]:
+    """The links that are their own ancestors: each link's walk to the root stops at a link walked before, so the
+    whole is linear in the links (a walk from every link to the root was quadratic: 27 s on a 10,000-link chain)."""
+    state: dict[str, int] = {}  # 1: on the walk under way, 2: walked before
+    cycles: set[str] = set()
     for start in names:
-        seen, link = {start}, start
-        while link in parent_of:
-            link = parent_of[link]
-            if link in seen:
-                if link == start:
-                    found.append(
-                        _finding(source, "structure", names[start], f"link '{start}' is its own ancestor: a cycle")
-                    )
-                break
-            seen.add(link)
+        path, link = [], start
+        while link is not None and link not in state:
+            state[link] = 1
+            path.append(link)
+            link = parent_of.get(link)
+        if link is not None and state[link] == 1:  # the walk came back onto itself: the links from there are a cycle
+            cycles.update(path[path.index(link) :])
+        for walked in path:
+            state[walked] = 2
+    return cycles
+
+
+def _cycles_and_roots(source: UrdfSource, names: dict[str, etree._Element], parent_of: dict[str, str]) -> list[Finding]:
+    on_cycles = _on_cycles(names, parent_of)
+    found = [
+        _finding(source, "structure", names[start], f"link '{start}' is its own ancestor: a cycle")
+        for start in names
+        if start in on_cycles
+    ]
     roots = [name for name in names if name not in parent_of]
     if len(names) and len(roots) != 1 and not found:
         listed = ", ".join(roots[:6])

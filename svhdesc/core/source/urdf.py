@@ -7,7 +7,8 @@ import functools
 import math
 import re
 import warnings
-from collections.abc import Mapping, Sequence
+from collections import Counter
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from lxml import etree
 
 from svhdesc.core import exact
 from svhdesc.core.frames import rpy_matrix
+from svhdesc.core.limits import depth_problem
 from svhdesc.core.source.packages import resolve_uri
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
@@ -250,7 +252,7 @@ def _link(
     )
 
 
-def _joint_ends(element: etree._Element, where: str, links: list[str]) -> list[str]:
+def _joint_ends(element: etree._Element, where: str, links: Collection[str]) -> list[str]:
     ends = []
     for tag in ("parent", "child"):
         end = element.find(tag)
@@ -262,7 +264,7 @@ def _joint_ends(element: etree._Element, where: str, links: list[str]) -> list[s
     return ends
 
 
-def _joint(element: etree._Element, name: str, where: str, links: list[str]) -> Joint:
+def _joint(element: etree._Element, name: str, where: str, links: Collection[str]) -> Joint:
     kind = element.get("type")
     if kind in {"floating", "planar"}:
         raise SvhdescError(
@@ -380,8 +382,10 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     materials = _materials(root, files, source)
     links = [_link(element, materials, packages, source, files) for element in root.findall("link")]
     names = [link.name for link in links]
-    if len(set(names)) != len(names):
-        dup = next(n for n in names if names.count(n) > 1)
+    known = set(names)  # looked up for each joint's two ends: a list made 10,000 links quadratic
+    if len(known) != len(names):
+        counts = Counter(names)
+        dup = next(n for n in names if counts[n] > 1)
         raise SvhdescError(f"{locate(files, 'link', dup, source, nth=2)}: duplicate link '{dup}'")
     joints, unusable = [], []
     joint_names: set[str] = set()
@@ -394,7 +398,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
             raise SvhdescError(f"{locate(files, 'joint', name, source, nth=2)}: duplicate joint '{name}'")
         joint_names.add(name)
         try:
-            joints.append(_joint(element, name, where, names))
+            joints.append(_joint(element, name, where, known))
         except UnusableLimits as exc:
             unusable.append((exc, name))
     if unusable:  # one line for all of them (minitaur's eight knees), the first's file:line
@@ -404,4 +408,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     roots = [n for n in names if n not in children]
     if len(roots) != 1:
         raise SvhdescError(f"{source}: expected one root link, found {roots}")
+    too_deep = depth_problem({j.child: j.parent for j in joints})
+    if too_deep is not None:  # before any stage walks the tree
+        raise SvhdescError(f"{source}: {too_deep}")
     return Robot(name=root.get("name", source.stem), links=tuple(links), joints=tuple(joints), root=roots[0])

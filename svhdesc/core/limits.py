@@ -1,0 +1,43 @@
+"""The sizes of robot svhdesc answers for, stated once: past them a command refuses at once, naming the limit,
+instead of working for minutes or failing deep inside (issue 48: a 1,000-link chain ran the build's MJCF writer
+past Python's recursion limit; 10,000 links made validate's full tier simulate for hours).
+
+Measured (benchmarks/scale_bench.py, docs/results/scale.md): `init` and `validate --tier static` are linear in the
+links up to 10,000; `build` handles a chain of MAX_DEPTH links and 1,000 links on one base; the full tier's
+simulations grow faster than the joints (a 100-link chain: about a minute on 2 cores).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+MAX_DEPTH = 250  # links from the root to the deepest leaf: the MJCF nests a body per link; libxml2 reads 256 levels
+MAX_SIMULATED_JOINTS = 128  # movable joints of a model validate's full tier simulates (tiago_dual has 101)
+
+
+def tree_depth(parent_of: Mapping[str, str]) -> int:
+    """The most links on a path from a root to a leaf (a root alone: 1), from each link's parent; linear in the
+    links (each link's depth is found once). A cycle counts its links once, as a path."""
+    depth: dict[str, int] = {}
+    for start in parent_of:
+        path, on_path, link = [], set(), start
+        while link in parent_of and link not in depth and link not in on_path:
+            path.append(link)
+            on_path.add(link)
+            link = parent_of[link]
+        known = depth.get(link, 1)
+        for walked in reversed(path):
+            known += 1
+            depth[walked] = known
+    return max(depth.values(), default=1)
+
+
+def depth_problem(parent_of: Mapping[str, str]) -> str | None:
+    """Why a tree is too deep for svhdesc to build, or None."""
+    depth = tree_depth(parent_of)
+    if depth <= MAX_DEPTH:
+        return None
+    return (
+        f"its tree is {depth} links deep, more than the {MAX_DEPTH} svhdesc builds and simulates (a body nested in "
+        "its parent's for every link)"
+    )
