@@ -17,7 +17,7 @@ parser, the channels in the driver's order, nothing of SCHUNK's file overridden)
 
 Seeded faults (each failed the test, then reverted): the policy node publishing its targets in reversed joint order
 (forward: the channels 0.343 rad apart); the streamed JointTrajectory naming the joints in reversed order beside
-positions in the policy's order; the observer not writing the tracked cube's pose (the actor sees the cube where the
+positions in the policy's order (0.579 rad apart); the observer not writing the tracked cube's pose (the actor sees the cube where the
 reset put it: 0.139 rad apart); the forward controller left inactive (the switch skipped: the commands are ignored
 and the test fails). In-test: a fragment with its joints reversed, and an ``update_rate`` in it, are reported.
 """
@@ -140,7 +140,10 @@ def test_the_trajectory_plan_is_the_active_trajectory_controllers_over_the_joint
     assert trajectory_plan([*shipped, _state("forward_position_controller", "inactive", hand, forward)], hand) == [
         ("right_hand", [0, 1, 2])
     ]
-    both = [*shipped, _state("scaled_joint_trajectory_controller", "active", arm, "ur_controllers/Scaled" + JTC[27:])]
+    both = [
+        *shipped,
+        _state("scaled_joint_trajectory_controller", "active", arm, "ur_controllers/ScaledJointTrajectoryController"),
+    ]
     assert trajectory_plan(both, [arm[0], hand[1], arm[1], hand[0]]) == [
         ("scaled_joint_trajectory_controller", [0, 2]),
         ("right_hand", [1, 3]),
