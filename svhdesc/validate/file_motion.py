@@ -182,7 +182,7 @@ def _contact_kind(model: Any, leader: _Leader, pair: tuple[str, str]) -> str:
     two chains of links without a branch, from a link the leader's joint hangs from that is not the robot's base,
     which legs hang from), 'scene' (the world's geometry or another body tree) or 'robot'."""
     ids = {model.body(b).name: b for b in range(model.nbody)}
-    if any(name not in ids for name in pair):
+    if any(not name or name not in ids for name in pair):  # an unnamed body: which one is not known
         return "robot"
     first, second = (_ancestors(model, ids[name]) for name in pair)
     if 0 in (first[0], second[0]) or first[-2] != second[-2]:
