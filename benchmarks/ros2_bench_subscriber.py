@@ -79,12 +79,19 @@ class Subscriber:
         del self.clock[:-10]
 
     def published(self) -> dict[str, str]:
-        """{topic: type} of every topic the node publishes."""
-        try:
-            found = self.node.get_publisher_names_and_types_by_node(self.spec["node"], "/")
-        except RuntimeError:  # rclpy's NodeNameNonExistentError: not discovered yet
-            return {}
-        return {topic: types[0] for topic, types in found if types}
+        """{topic: type} of every topic the node's process publishes: the simulation's node and the ros2_control
+        graph's beside it (controller_manager, a node per controller, robot_state_publisher, svh): every node in
+        the private namespace but this one."""
+        topics: dict[str, str] = {}
+        for name, namespace in self.node.get_node_names_and_namespaces():
+            if name == self.node.get_name():
+                continue
+            try:
+                found = self.node.get_publisher_names_and_types_by_node(name, namespace)
+            except RuntimeError:  # rclpy's NodeNameNonExistentError: not discovered yet
+                continue
+            topics.update({topic: types[0] for topic, types in found if types})
+        return topics
 
     def subscribe_all(self) -> int:
         """Subscribe what the node publishes and this process does not yet read; the number of topics covered."""

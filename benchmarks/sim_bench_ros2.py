@@ -36,7 +36,7 @@ from results import write  # noqa: E402
 from sim_bench import bare_rate  # noqa: E402  the same reference as the ROS 1 page
 
 import svhdesc  # noqa: E402
-from svhdesc.model import NODE_NAME, ros2_joint_name  # noqa: E402
+from svhdesc.model import NODE_NAME, ROS2_JTC_TYPE, ros2_joint_name  # noqa: E402
 from tests.netns import private_namespace  # noqa: E402
 
 GOAL = 0.8
@@ -91,7 +91,7 @@ def goals(variant: str) -> dict[str, dict[str, Any]]:
     found = {}
     for name in types:
         joints = parameters[name].get("joints")
-        if joints:
+        if joints and types[name] == ROS2_JTC_TYPE:  # the forward controllers have no goals, no controller_state
             found[name] = {"joints": joints, "positions": [test[j] for j in joints], "seconds": GOAL_SECONDS}
     return found
 

@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from svhdesc.control.goals import Tolerances
@@ -43,6 +44,15 @@ from svhdesc.model import (
     VELOCITY_SERVO_TYPE,
     ros2_joint_name,
 )
+from svhdesc.ros2.graph import (
+    StatePublisher,
+    controller_parameters,
+    description,
+    node_with,
+    system_joints,
+    urdf_xacro,
+)
+from svhdesc.ros2.hardware import HardwareState
 from svhdesc.ros2.system import import_rclpy
 from svhdesc.sim import Simulation
 
@@ -98,7 +108,6 @@ class SimNode:
         from geometry_msgs.msg import PoseStamped
         from rclpy.clock_type import ClockType
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.parameter import Parameter
         from rclpy.time import Time as RosTime
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import JointState
@@ -112,22 +121,28 @@ class SimNode:
         self._Time, self._Clock, self._JointState, self._stamp = Time, Clock, JointState, stamp
         rate, types, parameters = read_controllers(controllers)
         self.period = 1.0 / rate
-        self.node = rclpy.create_node(
-            NODE_NAME, parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)]
-        )
-        # The node publishes /clock itself: its TimeSource's /clock subscription (use_sim_time) would take every
+        # The node publishes /clock itself: a TimeSource's /clock subscription (use_sim_time) would take every
         # message back through rclpy's executor, a Python callback per update contending for the GIL with the
-        # simulation thread (the as-fast rate 1.2-1.6x lower). It is dropped and publish() sets the ROS time instead;
-        # use_sim_time stays true, so the node's clock (goal stamps, timers) is simulated time as before.
-        for subscription in list(self.node.subscriptions):
-            if subscription.topic_name == "/clock":
-                self.node.destroy_subscription(subscription)
-        self._ros_clock, self._RosTime, self._ros_time = self.node.get_clock(), RosTime, ClockType.ROS_TIME
+        # simulation thread (the as-fast rate 1.2-1.6x lower). node_with drops it and publish() sets each node's ROS
+        # time instead; use_sim_time stays true, so the nodes' clocks (goal stamps, timers) are simulated time.
+        self.node = node_with(rclpy, NODE_NAME, {})
+        self.nodes = self._graph(controllers, rate, types, parameters)
+        self._ros_clocks = [n.get_clock() for n in (self.node, *self.nodes.values())]
+        self._RosTime, self._ros_time = RosTime, ClockType.ROS_TIME
         self.executor = SingleThreadedExecutor()
-        self.executor.add_node(self.node)
+        for node in (self.node, *self.nodes.values()):
+            self.executor.add_node(node)
         self._clock = self.node.create_publisher(Clock, "/clock", 10)
-        self._joint_states = self.node.create_publisher(JointState, "joint_states", 10)
-        self._names = [ros2_joint_name(j) for j in sim.info.joints]
+        broadcaster = self.nodes[ROS2_JOINT_STATE_BROADCASTER]
+        self._joint_states = broadcaster.create_publisher(JointState, "joint_states", 10)
+        # joint_state_broadcaster's order: the ros2_control system's joints (the generated ros2_control xacro)
+        ros_names = [ros2_joint_name(j) for j in sim.info.joints]
+        order = [ros_names.index(j) for j in system_joints(self._xacro) if j in ros_names]
+        order += [k for k in range(len(ros_names)) if k not in order]
+        self._order = np.array(order, dtype=int)
+        self._names = [ros_names[k] for k in order]
+        self._hardware = HardwareState(broadcaster, self.nodes.get("svh"), sim, self._names, self._xacro)
+        self._tf = StatePublisher(self.nodes["robot_state_publisher"], self._urdf, self._names)
         for body in track:
             sim.body_pose(body)  # an unknown body fails here, before anything is served
         self._PoseStamped = PoseStamped
@@ -136,9 +151,27 @@ class SimNode:
         self.forward_controllers: list[ForwardController] = []
         self.outbox = Outbox()  # messages are built and published on its thread (control/outbox.py)
         loaded, interfaces = self._load(controllers, types, parameters)
-        self.manager = ControllerManager(self.node, loaded, interfaces, self.queue, SWITCH_JAZZY)
+        self.manager = ControllerManager(self.nodes["controller_manager"], loaded, interfaces, self.queue, SWITCH_JAZZY)
         self._spinner = threading.Thread(target=self._spin, name="svhdesc-rclpy", daemon=True)
         self._stopped = threading.Event()
+
+    def _graph(
+        self, controllers: Path, rate: float, types: dict[str, str], parameters: dict[str, dict]
+    ) -> dict[str, Any]:
+        """The nodes of a ros2_control system beside the simulation's: controller_manager, one per controller,
+        robot_state_publisher, and (with a hand) SCHUNK's hardware interface's ``svh``."""
+        rclpy = self._rclpy
+        self._xacro = urdf_xacro(controllers)
+        self._urdf = description(self._xacro, controllers)
+        manager = {"update_rate": int(rate) if float(rate).is_integer() else rate}
+        manager.update({f"{name}.type": kind for name, kind in types.items()})
+        nodes = {"controller_manager": node_with(rclpy, "controller_manager", manager)}
+        for name, kind in types.items():
+            nodes[name] = node_with(rclpy, name, controller_parameters(kind, parameters[name], ROS2_JTC_TYPE))
+        nodes["robot_state_publisher"] = node_with(rclpy, "robot_state_publisher", {"robot_description": self._urdf})
+        if self.sim.info.hand_channels:
+            nodes["svh"] = node_with(rclpy, "svh", {})
+        return nodes
 
     def _load(
         self, path: Path, types: dict[str, str], parameters: dict[str, dict]
@@ -172,7 +205,7 @@ class SimNode:
                 )
             hand = all(j in sim.info.hand_channels for j in joints)
             controller = TrajectoryController(
-                self.node,
+                self.nodes[name],
                 name,
                 joints,
                 to_ros,
@@ -201,7 +234,7 @@ class SimNode:
 
         active = kind == VELOCITY_SERVO_TYPE
         interface = "velocity" if active else "position"
-        forward = ForwardController(self.node, name, joints, self.sim, self.queue)
+        forward = ForwardController(self.nodes[name], name, joints, self.sim, self.queue)
         forward.core.running = active
         forward.on_failure = lambda failed: self.manager.core.fail(failed)
         self.forward_controllers.append(forward)
@@ -226,24 +259,30 @@ class SimNode:
         """/clock and joint_states at the simulation's time (and into the recording): the state is read here,
         the messages built and published on the Outbox's thread."""
         at = self.sim.time
-        self._ros_clock.set_ros_time_override(self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time))
+        now = self._RosTime(nanoseconds=round(at * 1e9), clock_type=self._ros_time)
+        for clock in self._ros_clocks:
+            clock.set_ros_time_override(now)
         poses = [self.sim.body_pose(body) for body, _ in self._tracked]
-        self.outbox.add(self._publish_reading, (at, self.sim.joint_state(), poses))
+        self.outbox.add(self._publish_reading, (at, self.sim.joint_state(), poses, self._hardware.read()))
 
     def _publish_reading(self, reading: tuple[float, Any, list[Any]]) -> None:
-        at, state, poses = reading
+        at, state, poses, hardware = reading
         clock = self._Clock(clock=self._stamp(self._Time, at))
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
+        order = self._order
+        positions = state.positions[order]
         message = self._JointState(
             name=self._names,
-            position=state.positions.tolist(),
-            velocity=state.velocities.tolist(),
-            effort=state.efforts.tolist(),
+            position=positions.tolist(),
+            velocity=state.velocities[order].tolist(),
+            effort=state.efforts[order].tolist(),
         )
         message.header.stamp = clock.clock
         self._joint_states.publish(message)
         self._record(self._joint_states.topic_name, message, at)
+        self._hardware.publish(clock.clock, positions, state.velocities[order], state.efforts[order], hardware)
+        self._tf.publish(clock.clock, positions)
         for (_, publisher), (position, quaternion) in zip(self._tracked, poses):
             pose = self._PoseStamped()
             pose.header.stamp, pose.header.frame_id = clock.clock, TRACKING_FRAME
@@ -259,6 +298,7 @@ class SimNode:
         try:
             for controller in self.controllers:
                 controller.update()
+            self._hardware.settle()
             self.publish()
             self._drain()
             self.outbox.flush()  # at most every HANDOVER wall seconds
@@ -296,7 +336,8 @@ class SimNode:
         """Stop publishing, the executor and the node; ``shutdown`` rclpy too (False: the caller's rclpy runs on)."""
         self.outbox.close()
         self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
+        for node in (*self.nodes.values(), self.node):
+            node.destroy_node()
         if shutdown:
             self._rclpy.try_shutdown()
         self._spinner.join(2.0)

@@ -9,7 +9,7 @@ from typing import Any
 from svhdesc.errors import SvhdescError
 
 MISSING = (
-    "--ros2 needs ROS 2 Jazzy's rclpy and control_msgs, which {python} cannot import ({why}): run it with "
+    "--ros2 needs ROS 2 Jazzy's rclpy, control_msgs and tf2_msgs, which {python} cannot import ({why}): run it with "
     ".venv-ros2/bin/python -m svhdesc.cli (or .venv-ros2/bin/svhdesc), made by `bash tools/install.sh ros2`"
 )
 
@@ -20,6 +20,7 @@ def import_rclpy() -> ModuleType:
         import control_msgs.action  # noqa: F401 - built by tools/build_ros2_interfaces.sh
         import controller_manager_msgs.srv  # noqa: F401
         import rclpy
+        import tf2_msgs.msg  # noqa: F401 - built beside control_msgs
     except ImportError as exc:  # ModuleNotFoundError, or a wheel whose native library does not load
         raise SvhdescError(MISSING.format(python=sys.executable, why=exc)) from None
     return rclpy

@@ -22,7 +22,11 @@ def why_not() -> str | None:
     if isinstance(namespace, str):
         return namespace
     imports = subprocess.run(
-        [str(PYTHON), "-c", "import rclpy, control_msgs.action, controller_manager_msgs.srv, rosbags, mcap_ros2"],
+        [
+            str(PYTHON),
+            "-c",
+            "import rclpy, control_msgs.action, controller_manager_msgs.srv, tf2_msgs.msg, rosbags, mcap_ros2",
+        ],
         capture_output=True,
         text=True,
         timeout=60,
