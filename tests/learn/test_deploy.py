@@ -17,9 +17,10 @@ parser, the channels in the driver's order, nothing of SCHUNK's file overridden)
 
 Seeded faults (each failed the test, then reverted): the policy node publishing its targets in reversed joint order
 (forward: the channels 0.343 rad apart); the streamed JointTrajectory naming the joints in reversed order beside
-positions in the policy's order (0.579 rad apart); the observer not writing the tracked cube's pose (the actor sees the cube where the
-reset put it: 0.139 rad apart); the forward controller left inactive (the switch skipped: the commands are ignored
-and the test fails). In-test: a fragment with its joints reversed, and an ``update_rate`` in it, are reported.
+positions in the policy's order (0.579 rad apart); the observer not writing the tracked cube's pose (the actor
+sees the cube where the reset put it: 0.139 rad apart); the forward controller left inactive (the switch skipped:
+the commands are ignored and the test fails). In-test: a fragment with its joints reversed, and an ``update_rate``
+in it, are reported.
 """
 
 from __future__ import annotations
