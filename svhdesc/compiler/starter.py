@@ -29,10 +29,11 @@ from svhdesc.core import exact
 from svhdesc.core.frames import pose_matrix
 from svhdesc.core.halton import halton
 from svhdesc.core.inertia import inertial_problem
+from svhdesc.core.limits import mesh_size_problem
 from svhdesc.core.settings.config import PYTHON, package_name
 from svhdesc.core.settings.coupling import CouplingSpec, spec_from_mimics
 from svhdesc.core.settings.schema import JointDynamics, Simulation
-from svhdesc.core.source.meshes import MeshError, load_mesh
+from svhdesc.core.source.meshes import MeshError, MeshTooBig, load_mesh
 from svhdesc.core.source.packages import find_beside
 from svhdesc.core.source.quirks import apply_joint_quirks, clashing_names
 from svhdesc.core.source.urdf import read_mimics, read_urdf
@@ -92,6 +93,9 @@ def _check_meshes(robot: Robot) -> None:
             path = Path(geometry.mesh) if geometry.kind == "mesh" and geometry.mesh else None
             if path is not None and not (path.is_file() and os.access(path, os.R_OK)):
                 raise SvhdescError(f"link {link.name}: mesh {path} is missing or unreadable")
+            too_big = mesh_size_problem(path) if path is not None else None
+            if too_big is not None:  # the build would refuse it: said before a config is written
+                raise SvhdescError(f"link {link.name}: mesh {path} is {too_big}")
 
 
 def _read(source: Path, given: dict[str, Path], quirks: dict[str, Any]) -> tuple[Robot, list, dict[str, Path]]:
@@ -223,6 +227,8 @@ def _floor_block(robot: Robot, home: dict[str, float]) -> list[str]:
         for geometry in link.collisions or link.visuals:
             try:
                 shape = _source_shape(geometry)
+            except MeshTooBig as exc:  # the build would refuse it: said before a config is written
+                raise SvhdescError(f"link {link.name}: {exc}") from None
             except (SvhdescError, MeshError, OSError, ValueError):
                 continue
             corners = np.asarray(shape.bounds, dtype=float)

@@ -10,9 +10,24 @@ simulations grow faster than the joints (a 100-link chain: about a minute on 2 c
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
 MAX_DEPTH = 250  # links from the root to the deepest leaf: the MJCF nests a body per link; libxml2 reads 256 levels
 MAX_SIMULATED_JOINTS = 128  # movable joints of a model validate's full tier simulates (tiago_dual has 101)
+# bytes of a mesh file any command reads: the biggest of 3,226 robot meshes (example-robot-data, pybullet_data,
+# dm_control, gymnasium-robotics, robosuite) is go1's trunk.dae, 27 MB; a 100 MB STL took trimesh 1.1 GB and 17 s
+MAX_MESH_BYTES = 64 << 20
+# triangles of a mesh the build reads: MuJoCo reads no STL of more ('number of faces should be between 1 and 200000');
+# a million took the build 155 s and 1.9 GB before MuJoCo refused it
+MAX_MESH_TRIANGLES = 200_000
+
+
+def mesh_size_problem(path: Path) -> str | None:
+    """Why a mesh file is too big to read (its size against MAX_MESH_BYTES), or None; the file must exist."""
+    size = path.stat().st_size
+    if size <= MAX_MESH_BYTES:
+        return None
+    return f"{size / 2**20:.0f} MB, more than the {MAX_MESH_BYTES >> 20} MB svhdesc reads in a mesh file"
 
 
 def tree_depth(parent_of: Mapping[str, str]) -> int:

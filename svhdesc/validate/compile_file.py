@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
+from svhdesc.core.limits import mesh_size_problem
 from svhdesc.errors import SvhdescError
 from svhdesc.validate.poses import always_touching
 from svhdesc.validate.static_urdf import MOVABLE, UrdfSource, resolve_mesh
@@ -139,7 +140,8 @@ def _prepared_urdf(source: UrdfSource, notes: list[str]) -> etree._Element:
             path = resolve_mesh(mesh.get("filename", ""), source)
             try:
                 # is_file: a regular file only (a FIFO would block the read; the meshes check names it)
-                mesh.set("filename", str(_mujoco_mesh(path)) if path is not None and path.is_file() else "")
+                usable = path is not None and path.is_file() and mesh_size_problem(path) is None  # meshes names it
+                mesh.set("filename", str(_mujoco_mesh(path)) if usable else "")
             except (OSError, ValueError, CompileFailed):
                 mesh.set("filename", "")
             if not mesh.get("filename"):

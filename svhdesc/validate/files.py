@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from svhdesc.core.limits import mesh_size_problem
 from svhdesc.core.source.packages import package_map
 from svhdesc.errors import SvhdescError
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
@@ -368,8 +369,13 @@ def _irregular_assets(files: list[tuple[Path, etree._Element]]) -> list[Finding]
         for element in root.iter():
             name = element.get("file") if isinstance(element.tag, str) else None  # an <include> too
             for candidate in (folder / name for folder in folders) if name else ():
-                if os.path.lexists(candidate) and not candidate.is_file():
+                if not os.path.lexists(candidate):
+                    continue
+                if candidate.is_file():  # a mesh MuJoCo would read for minutes and gigabytes: not compiled either
+                    what = mesh_size_problem(candidate) if element.tag == "mesh" else None
+                else:
                     what = "a folder" if candidate.is_dir() else "not a regular file"
+                if what is not None:
                     message = f'<{element.tag} file="{name}">: {candidate} is {what}'
                     found.append(Finding("mjcf_compile", str(file), element.sourceline, message))
                     break

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from svhdesc.core.limits import mesh_size_problem
 from svhdesc.core.source.urdf import locate
 from svhdesc.validate.findings import Finding
 
@@ -418,6 +419,13 @@ def resolve_mesh(uri: str, source: UrdfSource) -> Path | None:
     return path if path.is_absolute() else source.path.parent / path
 
 
+def _unusable(path: Path) -> str | None:
+    """Why a mesh file is not read: missing, not a regular file, or too big (minutes and gigabytes), or None."""
+    if not path.is_file():
+        return "missing" if not path.exists() else "not a regular file"
+    return mesh_size_problem(path)
+
+
 def check_meshes(source: UrdfSource) -> list[Finding]:
     """Every mesh resolves to a readable regular file, and no collision mesh dwarfs its link's visuals."""
     found = []
@@ -439,9 +447,8 @@ def check_meshes(source: UrdfSource) -> list[Finding]:
                             f"--package {package}=DIR",
                         )
                     )
-                elif not path.is_file():
-                    why = "missing" if not path.exists() else "not a regular file"
-                    found.append(_finding(source, "meshes", mesh, f"mesh '{uri}': {path} is {why}"))
+                elif (unusable := _unusable(path)) is not None:
+                    found.append(_finding(source, "meshes", mesh, f"mesh '{uri}': {path} is {unusable}"))
                 else:
                     size = _mesh_diagonal(path, mesh.get("scale"))
                     if size is None:
@@ -452,7 +459,7 @@ def check_meshes(source: UrdfSource) -> list[Finding]:
                             collisions.setdefault(link.get("name", "?"), []).append(mesh)
     for (link, role), sizes in extents.items():
         visual = extents.get((link, "visual"))
-        if role != "collision" or not visual:
+        if role != "collision" or not visual or max(visual) <= 0:  # 0: every visual vertex at one point
             continue
         ratio = max(sizes) / max(visual)
         if ratio > COLLISION_SCALE_BOUND:

@@ -14,6 +14,7 @@ import trimesh
 from lxml import etree
 
 from svhdesc.core import exact
+from svhdesc.core.limits import MAX_MESH_TRIANGLES, mesh_size_problem
 from svhdesc.core.source.winding import fix_winding
 
 MAX_RAW = 1e6  # largest plausible number in a mesh file (a coordinate of 1 km in millimetres)
@@ -32,6 +33,10 @@ _UP_AXIS = {
 
 class MeshError(ValueError):
     """A mesh file that is missing, unreadable or empty; the message starts with its path."""
+
+
+class MeshTooBig(MeshError):
+    """A mesh past ``core.limits``' size or triangles: not read further, whoever asks (init says so up front)."""
 
 
 def _collada_frame(path: Path) -> tuple[float, np.ndarray | None]:
@@ -68,6 +73,9 @@ def _read(path: Path) -> trimesh.Trimesh:
     suffix = path.suffix.lower()
     if suffix not in (".dae", ".stl", ".obj"):
         raise MeshError(f"{path}: unsupported mesh format {path.suffix!r} (use .dae, .stl or .obj)")
+    too_big = mesh_size_problem(path)
+    if too_big is not None:  # before a parser takes gigabytes over it
+        raise MeshTooBig(f"{path}: {too_big}")
     meter, rotation = _collada_frame(path) if suffix == ".dae" else (1.0, None)
     try:
         loaded = trimesh.load(str(path), file_type=suffix[1:], force="mesh", process=False)
@@ -79,6 +87,10 @@ def _read(path: Path) -> trimesh.Trimesh:
     faces = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64)
     if len(faces) == 0 or len(vertices) == 0:
         raise MeshError(f"{path}: mesh has no triangles")
+    if len(faces) > MAX_MESH_TRIANGLES:  # before welding, winding and decomposing them for minutes
+        raise MeshTooBig(
+            f"{path}: {len(faces):,} triangles, more than the {MAX_MESH_TRIANGLES:,} MuJoCo reads in a mesh"
+        )
     if not np.all(np.isfinite(vertices)):
         raise MeshError(f"{path}: mesh has non-finite vertex coordinates")
     if np.any(faces < 0) or np.any(faces >= len(vertices)):
