@@ -92,11 +92,11 @@ def make_runner(env: Any, cfg: dict[str, Any], log_dir: Path | None) -> Any:
     # rsl-rl's code-state store writes git/<repo>.diff, the status and diff of whichever repository holds the
     # installed rsl_rl (an unrelated one's uncommitted work), into every run folder: a run folder holds svhdesc's
     # own state only.
-    runner.logger._store_code_state = _no_code_state
+    runner.logger._store_code_state = no_code_state
     return runner
 
 
-def _no_code_state() -> list[str]:
+def no_code_state() -> list[str]:
     """No files of the code's state to store or upload."""
     return []
 

@@ -1,7 +1,8 @@
 """mjlab's own train entry point (``mjlab.scripts.train:main``, the ``train`` command pip installs with mjlab) on
 svhdesc's two tasks, found through the ``mjlab.tasks`` entry point, on the CPU (no GPU selected: MuJoCo Warp's CPU
 device): 2 PPO iterations each of 2 worlds x 4 steps (the fewest that run the entry point end to end; the cost is
-MuJoCo Warp compiling its CPU kernels, not the steps), each writing its checkpoints and its ONNX policy. And the
+MuJoCo Warp compiling its CPU kernels, not the steps), each writing its checkpoints and its ONNX policy, and no
+diff of the checkout (rsl-rl's code-state store, switched off as svhdesc train's). And the
 registry: both tasks with their play variants, whose episodes do not end. In .venv-mjlab (see test_entity.py)."""
 
 from __future__ import annotations
@@ -45,3 +46,4 @@ def test_mjlab_train_writes_a_checkpoint(task: str, tmp_path: Path, monkeypatch:
     state = torch.load(checkpoint, map_location="cpu", weights_only=False)
     assert state["iter"] == 1
     assert list(runs[0].glob("*.onnx")), "no ONNX policy"
+    assert not (runs[0] / "git").exists(), "rsl-rl stored the checkout's diff"  # seeded: Runner's override removed
