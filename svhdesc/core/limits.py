@@ -2,9 +2,10 @@
 instead of working for minutes or failing deep inside (issue 48: a 1,000-link chain ran the build's MJCF writer
 past Python's recursion limit; 10,000 links made validate's full tier simulate for hours).
 
-Measured (benchmarks/scale_bench.py, docs/results/scale.md): `init` and `validate --tier static` are linear in the
-links up to 10,000; `build` handles a chain of MAX_DEPTH links and 1,000 links on one base; the full tier's
-simulations grow faster than the joints (a 100-link chain: about a minute on 2 cores).
+Measured (benchmarks/scale_bench.py, docs/results/scale.md): `validate --tier static` is linear in the links up to
+10,000; init's loads are linear too, but init and build take at most MAX_LINKS links, MAX_DEPTH deep (the build's
+collision probes grow with the square of the bodies); the full tier's simulations grow faster than the joints (a
+100-link chain: about a minute on 2 cores), so it takes at most MAX_SIMULATED_JOINTS.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+MAX_LINKS = 500  # links of a robot init and build take: the build's probes test every pair of bodies (200 siblings:
+# 22 s of probes on 2 loaded cores, growing with the square); the biggest robot of example-robot-data has 130
 MAX_DEPTH = 250  # links from the root to the deepest leaf: the MJCF nests a body per link; libxml2 reads 256 levels
 MAX_SIMULATED_JOINTS = 128  # movable joints of a model validate's full tier simulates (tiago_dual has 101)
 # bytes of a mesh file any command reads: the biggest of 3,226 robot meshes (example-robot-data, pybullet_data,
@@ -45,6 +48,16 @@ def tree_depth(parent_of: Mapping[str, str]) -> int:
             known += 1
             depth[walked] = known
     return max(depth.values(), default=1)
+
+
+def links_problem(links: int) -> str | None:
+    """Why a robot of ``links`` links is too big to build, or None."""
+    if links <= MAX_LINKS:
+        return None
+    return (
+        f"{links:,} links, more than the {MAX_LINKS} svhdesc builds (its collision probes test every pair of bodies: "
+        "the time grows with the square of the links)"
+    )
 
 
 def depth_problem(parent_of: Mapping[str, str]) -> str | None:

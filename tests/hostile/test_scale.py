@@ -1,10 +1,11 @@
 """Robots too big for a command are refused at once with the limit named (issue 48 item 6; ``core/limits.py``); the
 walks over a tree are linear (the times: benchmarks/scale_bench.py, docs/results/scale.md).
 
-Seeded faults: read_urdf without ``depth_problem`` (init on the 251-deep chain writes a config, and build then fails
-past Python's recursion limit); ``refuse_unsimulated`` not called (the full tier simulates 129 joints for minutes,
-past the test's bound: the in-process run is refused within 60 s); ``_on_cycles`` marking every link it walks as
-on a cycle (the link hanging below the cycle, walked first, is named).
+Seeded faults: read_urdf without ``links_problem`` (init on 501 siblings writes a config); without
+``depth_problem`` (init on the 251-deep chain writes a config, and build then fails past Python's recursion limit);
+``refuse_unsimulated`` not called (the full tier simulates 129 joints for minutes, past the test's bound: the
+in-process run is refused within 60 s); ``_on_cycles`` marking every link it walks as on a cycle (the link hanging
+below the cycle, walked first, is named).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from svhdesc.core.limits import MAX_DEPTH, MAX_SIMULATED_JOINTS, tree_depth
+from svhdesc.core.limits import MAX_DEPTH, MAX_LINKS, MAX_SIMULATED_JOINTS, tree_depth
 from svhdesc.validate.files import validate_file
 from tests.support import REPO, fails_cleanly, run_cli
 
@@ -57,6 +58,13 @@ def test_init_refuses_a_tree_deeper_than_it_builds(tmp_path: Path) -> None:
         out, "init", str(source), "--out", str(out / "deep.yaml"), match=f"more than the {MAX_DEPTH} svhdesc builds"
     )
     assert f"{MAX_DEPTH + 1} links deep" in said
+
+
+def test_init_refuses_more_links_than_it_builds(tmp_path: Path) -> None:
+    source = tmp_path / "wide.urdf"
+    source.write_bytes(robot_urdf(MAX_LINKS, siblings=True))  # base + MAX_LINKS links: one too many
+    said = fails_cleanly(tmp_path, "init", str(source), "--out", str(tmp_path / "wide.yaml"), match="svhdesc builds")
+    assert f"{MAX_LINKS + 1:,} links, more than the {MAX_LINKS}" in said
 
 
 def test_the_full_tier_refuses_past_its_joints(tmp_path: Path) -> None:

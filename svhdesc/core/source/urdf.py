@@ -17,7 +17,7 @@ from lxml import etree
 
 from svhdesc.core import exact
 from svhdesc.core.frames import rpy_matrix
-from svhdesc.core.limits import depth_problem
+from svhdesc.core.limits import depth_problem, links_problem
 from svhdesc.core.source.packages import resolve_uri
 from svhdesc.errors import SvhdescError
 from svhdesc.ir import Geometry, Inertial, Joint, Link, Pose, Robot, Vec3
@@ -379,6 +379,9 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     ``files`` (the xacro files expanded) let errors name the file and line of the culprit.
     """
     files = list(files) or [source]
+    too_many = links_problem(len(root.findall("link")))
+    if too_many is not None:  # before each link is read
+        raise SvhdescError(f"{source}: {too_many}")
     materials = _materials(root, files, source)
     links = [_link(element, materials, packages, source, files) for element in root.findall("link")]
     names = [link.name for link in links]
@@ -408,7 +411,7 @@ def read_urdf(root: etree._Element, packages: Mapping[str, Path], source: Path, 
     roots = [n for n in names if n not in children]
     if len(roots) != 1:
         raise SvhdescError(f"{source}: expected one root link, found {roots}")
-    too_deep = depth_problem({j.child: j.parent for j in joints})
-    if too_deep is not None:  # before any stage walks the tree
-        raise SvhdescError(f"{source}: {too_deep}")
+    too_big = depth_problem({j.child: j.parent for j in joints})
+    if too_big is not None:  # before any stage walks the tree
+        raise SvhdescError(f"{source}: {too_big}")
     return Robot(name=root.get("name", source.stem), links=tuple(links), joints=tuple(joints), root=roots[0])
