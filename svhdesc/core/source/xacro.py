@@ -16,6 +16,7 @@ import resource
 import select
 import signal
 import time
+import warnings
 import xml.dom.minidom
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -145,7 +146,11 @@ def bounded(work: Callable[[], Any], what: str, seconds: int, memory: int) -> An
     if not hasattr(os, "fork"):
         return work()
     read, write = os.pipe()
-    pid = os.fork()
+    with warnings.catch_warnings():
+        # JAX, once its backends run (validate's full tier), warns at every fork that a child using JAX would
+        # deadlock on its threads' locks: this child runs pure Python (xacro, minidom) and leaves by os._exit
+        warnings.filterwarnings("ignore", r"os\.fork\(\) was called", RuntimeWarning)
+        pid = os.fork()
     if pid == 0:
         os.close(read)
         resource.setrlimit(resource.RLIMIT_CPU, (seconds, resource.getrlimit(resource.RLIMIT_CPU)[1]))
