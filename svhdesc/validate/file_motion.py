@@ -232,6 +232,13 @@ def _judge(run: _Run, leader: _Leader, miss: Miss, pairs: list) -> tuple[Finding
     return None, f"{at}: {what}: {miss.blockers[0]}{hulls}"
 
 
+def _diverges(compiled: Compiled, leader: _Leader, end: str, label: str) -> CheckResult:
+    """One finding for a model that diverges while a servo drives its joint: each stroke would diverge again."""
+    file, line = compiled.where("joint", leader.name)
+    message = f"the model diverges while joint '{leader.name}' is driven to its {end} end from {label}"
+    return CheckResult(CHECK, "fail", [Finding(CHECK, file, line, f"{message} (see model_test, settle)")])
+
+
 def range_of_motion(
     compiled: Compiled, tolerances: Mapping[str, float] | None = None, left_out: Mapping[str, str] | None = None
 ) -> CheckResult:
@@ -248,16 +255,15 @@ def range_of_motion(
     run = _Run(compiled, rest, label, mujoco.MjData(model), _pinned(model, rest))
     findings, notes, alone = [], [f"'{j}' left out: {why}" for j, why in left_out.items()], 0
     for end in ("upper", "lower"):
+        # Moving everything at once may make a model diverge that each joint alone does not (anymal-kinova's
+        # hulls): then every joint goes alone, and the first that diverges alone ends the check with one finding.
         reached = run.together(leaders, end)
-        if run.diverged():  # each stroke alone would diverge again, at full length: one finding, no more strokes
-            file, _ = compiled.where("model", "")
-            message = f"the model diverges while its servos drive every joint to its {end} end from {label}"
-            return CheckResult(CHECK, "fail", [Finding(CHECK, file, None, f"{message} (see model_test, settle)")])
-        for leader, got in zip(leaders, reached):
-            if got:
-                continue
+        reached = [False] * len(leaders) if run.diverged() else reached
+        for leader in (x for x, got in zip(leaders, reached) if not got):
             alone += 1
             missed = run.alone(leader, end)
+            if run.diverged():
+                return _diverges(compiled, leader, end, label)
             if missed is not None:
                 finding, note = _judge(run, leader, *missed)
                 findings += [finding] if finding else []

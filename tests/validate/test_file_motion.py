@@ -282,3 +282,12 @@ def test_svhdesc_yaml_carries_keyframe_and_joints(tmp_path: Path, monkeypatch: p
     urdf.write_text('<robot name="one"><link name="base"/></robot>\n')
     with pytest.raises(SvhdescError, match="a URDF has no keyframes"):
         validate_file(urdf, FULL, {}, tier="full", quirks=Quirks(keyframe="home"))
+
+
+def test_a_model_diverging_under_its_servos_is_one_finding(tmp_path: Path) -> None:
+    """Seeded fault: a timestep of 0.1 s, at which the arm's servos make it diverge: one finding at the first joint
+    that diverges alone (not a stroke per joint and end, each diverging again)."""
+    path = _arm(tmp_path, lambda t: t.find(".//option").set("timestep", "0.1"))
+    (finding,) = _check(validate_file(path, FULL, {}, tier="full")).findings
+    assert finding.message.startswith("the model diverges while joint 'shoulder' is driven to its upper end"), finding
+    assert finding.line == etree.parse(str(path)).find(".//joint[@name='shoulder']").sourceline
