@@ -1,11 +1,13 @@
 """range_of_motion on a robot file as it stands (the full tier of `svhdesc validate PATH`).
 
 Every joint a position servo drives (a limited hinge or slide that no coupling makes a follower) goes from the rest
-pose (the keyframe the settings name, else keyframe 0, else qpos0 within the limits) to each end of its servo's
-range (its ctrlrange within the joint's range) with contacts and gravity on, a floating base held where it rests.
-All joints go at once, to their upper ends and then to their lower ends: a 20-joint hand costs two strokes, not
-forty. A joint that misses an end by more than 1 % of its range (or its settings' tolerance) goes again alone,
-the others held at rest, and only a miss then is judged, with the built variants' rules (range_of_motion.classify):
+pose (the keyframe the settings name, else keyframe 0, else qpos0 within the limits) toward each end of its range,
+its servo aimed at the end of its own ctrlrange (which may pass the joint's limit: the limit must hold), contacts
+and gravity on, a floating base held where it rests. All joints go at once, to their upper ends and then to their
+lower ends: a 20-joint hand costs two strokes, not forty. A joint that misses an end of its range (within its
+ctrlrange) by more than 1 % of it (or its settings' tolerance) goes again alone, the others held at rest, and only
+a miss then is judged, with the built variants' rules (range_of_motion.classify); a model that diverges while one
+joint is driven alone is one finding, and the check ends there:
 
 - it goes through its limit by more than LIMIT_GIVE of its range: a finding (a limit too soft for the servo, the
   load or a contact on it), except where a contact pushes a URDF's joint through (its meshes collide as MuJoCo's
