@@ -13,12 +13,13 @@ import numpy as np
 from lxml import etree
 
 from svhdesc.model import ros2_joint_name
-from svhdesc.ros2.graph import current_and_effort
+from svhdesc.ros2.graph import Prefilled, currents_and_efforts
 from svhdesc.sim import Simulation
 
 SETTLE_SPEED = 0.01  # rad/s: every channel slower than this ends the start's settling
 SETTLE_LONGEST = 1.0  # simulated s: the settling ends by then in any case
 CHANNEL_INTERFACES = ("position", "velocity", "effort", "current")  # SystemInterface::export_state_interfaces
+JOINT = ("position", "velocity")  # a joint the generated system declares nothing for
 
 
 def state_interfaces(xacro_file: Path) -> dict[str, list[str]]:
@@ -39,6 +40,7 @@ class HardwareState:
         """``names``: joint_states' joints (ROS 2 names, the system's order)."""
         from control_msgs.msg import DynamicJointState, InterfaceValue
         from rclpy.qos import DurabilityPolicy, QoSProfile
+        from rclpy.serialization import serialize_message
         from std_msgs.msg import Bool
 
         self._sim = sim
@@ -47,13 +49,23 @@ class HardwareState:
         self._channel_dofs = np.array([sim.model.joint(c).dofadr[0] for c in sim.info.hand_channels], dtype=int)
         declared = state_interfaces(xacro_file)
         self._message = DynamicJointState(joint_names=list(names))
-        self._rows: list[tuple[Any, int, int]] = []  # (InterfaceValue, joint row, channel or -1)
-        for row, name in enumerate(names):
-            channel = self._channels.index(name) if name in self._channels else -1
-            interfaces = list(CHANNEL_INTERFACES) if channel >= 0 else declared.get(name, ["position", "velocity"])
+        self._channel_rows = np.array([list(names).index(c) for c in self._channels], dtype=int)
+        self._table = np.zeros((len(names), len(CHANNEL_INTERFACES)))  # rows: joints; columns: CHANNEL_INTERFACES
+        self._rows: list[tuple[Any, list[int]]] = []  # (InterfaceValue, its interfaces' columns in the table)
+        for name in names:
+            interfaces = list(CHANNEL_INTERFACES) if name in self._channels else declared.get(name, list(JOINT))
+            interfaces = [i for i in interfaces if i in CHANNEL_INTERFACES]
             value = InterfaceValue(interface_names=interfaces, values=[0.0] * len(interfaces))
             self._message.interface_values.append(value)
-            self._rows.append((value, row, channel))
+            self._rows.append((value, [CHANNEL_INTERFACES.index(i) for i in interfaces if i in CHANNEL_INTERFACES]))
+        self._flat = np.array(
+            [row * len(CHANNEL_INTERFACES) + c for row, (_, columns) in enumerate(self._rows) for c in columns]
+        )
+        for k, value in enumerate(self._message.interface_values):  # the template: markers where the values go
+            first = sum(len(v.interface_names) for v in self._message.interface_values[:k])
+            value.values = [Prefilled.marker(first + i) for i in range(len(value.interface_names))]
+        self._message.header.stamp.sec, self._message.header.stamp.nanosec = Prefilled.STAMP
+        self._bytes = Prefilled(serialize_message(self._message), len(self._flat), 1)
         self._dynamic = broadcaster.create_publisher(DynamicJointState, "dynamic_joint_states", 10)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._initialized = None if svh is None else svh.create_publisher(Bool, "svh/initialized", latched)
@@ -77,14 +89,10 @@ class HardwareState:
     def publish(
         self, stamp: Any, positions: np.ndarray, velocities: np.ndarray, efforts: np.ndarray, forces: np.ndarray
     ) -> None:
-        """/dynamic_joint_states (the Outbox's thread): the message is refilled, not rebuilt."""
-        message = self._message
-        message.header.stamp = stamp
-        for value, row, channel in self._rows:
-            if channel >= 0:
-                current, effort = current_and_effort(channel, float(forces[channel]))
-                value.values = [float(positions[row]), float(velocities[row]), effort, current]
-                continue
-            readings = {"position": positions[row], "velocity": velocities[row], "effort": efforts[row]}
-            value.values = [float(readings.get(i, 0.0)) for i in value.interface_names]
-        self._dynamic.publish(message)
+        """/dynamic_joint_states (the Outbox's thread), as bytes: the values written into the serialized template."""
+        table = self._table
+        table[:, 0], table[:, 1], table[:, 2], table[:, 3] = positions, velocities, efforts, 0.0
+        if len(self._channel_rows):  # SCHUNK's nine channels (a robot without the hand has none)
+            currents, channel_efforts = currents_and_efforts(forces)
+            table[self._channel_rows, 2], table[self._channel_rows, 3] = channel_efforts, currents
+        self._dynamic.publish(self._bytes.payload(table.ravel()[self._flat], stamp.sec, stamp.nanosec))

@@ -45,9 +45,11 @@ from svhdesc.model import (
     ros2_joint_name,
 )
 from svhdesc.ros2.graph import (
+    TF_RATE,
     StatePublisher,
     controller_parameters,
     description,
+    joint_state_template,
     node_with,
     system_joints,
     urdf_xacro,
@@ -127,7 +129,10 @@ class SimNode:
         # time instead; use_sim_time stays true, so the nodes' clocks (goal stamps, timers) are simulated time.
         self.node = node_with(rclpy, NODE_NAME, {})
         self.nodes = self._graph(controllers, rate, types, parameters)
-        self._ros_clocks = [n.get_clock() for n in (self.node, *self.nodes.values())]
+        # Clocks set each update: the simulation's and the trajectory controllers' (their action servers stamp goals);
+        # the other nodes stamp nothing with their own clock (every message carries the simulation's stamp).
+        timed = [self.node, *(self.nodes[name] for name, kind in types.items() if kind == ROS2_JTC_TYPE)]
+        self._ros_clocks = [n.get_clock() for n in timed]
         self._RosTime, self._ros_time = RosTime, ClockType.ROS_TIME
         self.executor = SingleThreadedExecutor()
         for node in (self.node, *self.nodes.values()):
@@ -141,6 +146,7 @@ class SimNode:
         order += [k for k in range(len(ros_names)) if k not in order]
         self._order = np.array(order, dtype=int)
         self._names = [ros_names[k] for k in order]
+        self._joint_state_bytes = joint_state_template(self._names)
         self._hardware = HardwareState(broadcaster, self.nodes.get("svh"), sim, self._names, self._xacro)
         self._tf = StatePublisher(self.nodes["robot_state_publisher"], self._urdf, self._names)
         for body in track:
@@ -168,7 +174,9 @@ class SimNode:
         nodes = {"controller_manager": node_with(rclpy, "controller_manager", manager)}
         for name, kind in types.items():
             nodes[name] = node_with(rclpy, name, controller_parameters(kind, parameters[name], ROS2_JTC_TYPE))
-        nodes["robot_state_publisher"] = node_with(rclpy, "robot_state_publisher", {"robot_description": self._urdf})
+        nodes["robot_state_publisher"] = node_with(
+            rclpy, "robot_state_publisher", {"robot_description": self._urdf, "publish_frequency": TF_RATE}
+        )
         if self.sim.info.hand_channels:
             nodes["svh"] = node_with(rclpy, "svh", {})
         return nodes
@@ -271,18 +279,18 @@ class SimNode:
         self._clock.publish(clock)
         self._record(self._clock.topic_name, clock, at)
         order = self._order
-        positions = state.positions[order]
-        message = self._JointState(
-            name=self._names,
-            position=positions.tolist(),
-            velocity=state.velocities[order].tolist(),
-            effort=state.efforts[order].tolist(),
-        )
-        message.header.stamp = clock.clock
-        self._joint_states.publish(message)
-        self._record(self._joint_states.topic_name, message, at)
-        self._hardware.publish(clock.clock, positions, state.velocities[order], state.efforts[order], hardware)
-        self._tf.publish(clock.clock, positions)
+        positions, velocities, efforts = state.positions[order], state.velocities[order], state.efforts[order]
+        stamp = clock.clock
+        values = np.concatenate([positions, velocities, efforts])
+        self._joint_states.publish(self._joint_state_bytes.payload(values, stamp.sec, stamp.nanosec))
+        if self.recorder is not None:
+            message = self._JointState(
+                name=self._names, position=positions.tolist(), velocity=velocities.tolist(), effort=efforts.tolist()
+            )
+            message.header.stamp = stamp
+            self._record(self._joint_states.topic_name, message, at)
+        self._hardware.publish(stamp, positions, velocities, efforts, hardware)
+        self._tf.publish(clock.clock, at, positions)
         for (_, publisher), (position, quaternion) in zip(self._tracked, poses):
             pose = self._PoseStamped()
             pose.header.stamp, pose.header.frame_id = clock.clock, TRACKING_FRAME

@@ -336,10 +336,14 @@ def _query(d: Driver, publisher: Any, joints: list[str]) -> dict[str, Any]:
 def hardware(d: Driver) -> dict[str, Any]:
     """/svh/initialized (latched), /dynamic_joint_states, joint_states' order, /robot_description, /tf."""
     deadline = time.monotonic() + 15.0  # all come within a second of the start
-    while ("/svh/initialized" not in d.latched or d.dynamic is None or "/robot_description" not in d.latched) and (
-        time.monotonic() < deadline
-    ):
+    wanted = ("/svh/initialized", "/robot_description")
+    while time.monotonic() < deadline:
+        with d._lock:
+            tf = bool(d.tf) and bool(d.tf_static)
+        if tf and d.dynamic is not None and all(t in d.latched for t in wanted):
+            break
         time.sleep(0.05)
+    d.sleep(0.2)  # a few /tf messages more: every moving joint's transform has come
     dynamic = d.dynamic
     interfaces, order = {}, {}
     if dynamic is not None:

@@ -262,14 +262,14 @@ import svhdesc.ros2.graph as graph
 import svhdesc.ros2.hardware as hardware
 import svhdesc.ros2.node as node
 
-hardware.CHANNEL_INTERFACES = ("position", "velocity", "effort")
+hardware.CHANNEL_INTERFACES = ("velocity", "position", "effort", "current")
 hardware.SETTLE_LONGEST, hardware.SETTLE_SPEED = float("inf"), -1.0
 node.system_joints = lambda path: sorted(graph.system_joints(path))
 real_node_with = node.node_with
 node.node_with = lambda rclpy, name, parameters: real_node_with(
     rclpy, name if name in ("svhdesc_sim", "controller_manager") else "x_" + name, {}
 )
-graph.StatePublisher.publish = lambda self, stamp, positions: None
+graph.StatePublisher.publish = lambda self, *reading: None
 controller.TrajectoryController.on_topic = lambda self, goal: None
 real_state = controller.TrajectoryController._publish_state
 published = [0]
@@ -286,7 +286,7 @@ controller.TrajectoryController._publish_state = every_second
 
 
 def test_seeded_faults_fail_the_checks(tmp_path: Path) -> None:
-    """svh_right's node with seeded faults (monkeypatched in its process): a channel without ``current``, no
+    """svh_right's node with seeded faults (monkeypatched in its process): the channels' interfaces reordered, no
     settling, joint_states sorted by name, the controller nodes renamed and declaring nothing, no /tf, topic
     trajectories dropped, every second controller_state dropped: each check above fails on that report;
     list_controllers (no fault) still passes."""
