@@ -24,7 +24,7 @@ from svhdesc.validate.findings import CheckResult, FileReport, Finding
 from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
 from svhdesc.validate.poses import is_position_servo
 from svhdesc.validate.quirks import Quirks
-from svhdesc.validate.sizes import refuse_unsimulated
+from svhdesc.validate.sizes import unsimulated
 from svhdesc.validate.static_urdf import RULES, UrdfSource
 
 STATIC_MJCF_CHECKS = ("mjcf_compile", "actuator_ranges", "keyframes")
@@ -276,14 +276,13 @@ def validate_file(
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
         if tier == "full" and selected & {"mujoco_compile", *FULL_CHECKS}:
-            refuse_unsimulated(root, path)
-            report.checks.extend(_full_urdf(source, quirks or Quirks()))
+            refused = unsimulated(root, path, walked, "mujoco_compile")
+            report.checks.extend(refused or _full_urdf(source, quirks or Quirks()))
     elif root.tag == "mujoco":
         report = FileReport(str(path), "mjcf")
         report.checks.append(_result("xml", tolerated))
-        if tier == "full":
-            refuse_unsimulated(root, path)
-        report.checks.extend(_mjcf_checks(path, selected, tier, quirks or Quirks()))
+        refused = unsimulated(root, path, walked, "mjcf_compile") if tier == "full" else None
+        report.checks.extend(refused or _mjcf_checks(path, selected, tier, quirks or Quirks()))
     else:
         raise SvhdescError(f"{path}:{root.sourceline}: not a robot file (root <{root.tag}>, not <robot> or <mujoco>)")
     report.checks = [c for c in report.checks if c.name in selected]

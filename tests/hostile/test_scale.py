@@ -3,7 +3,7 @@ walks over a tree are linear (the times: benchmarks/scale_bench.py, docs/results
 
 Seeded faults: read_urdf without ``links_problem`` (init on 501 siblings writes a config); without
 ``depth_problem`` (init on the 251-deep chain writes a config, and build then fails past Python's recursion limit);
-``refuse_unsimulated`` not called (the full tier simulates 129 joints for minutes, past the test's bound: the
+``unsimulated`` not called (the full tier simulates 129 joints for minutes, past the test's bound: the
 in-process run is refused within 60 s); ``_on_cycles`` marking every link it walks as on a cycle (the link hanging
 below the cycle, walked first, is named).
 """
@@ -75,3 +75,14 @@ def test_the_full_tier_refuses_past_its_joints(tmp_path: Path) -> None:
     assert time.perf_counter() - started < 60
     static = run_cli("validate", str(source), "--tier", "static", in_process=True)
     assert static.returncode == 0, static.stdout + static.stderr
+
+
+def test_a_folder_s_big_model_is_a_finding_not_the_end(tmp_path: Path) -> None:
+    """In a folder's walk (CI on a repository) the model past the full tier's joints is a finding naming the limit,
+    and the other models are validated (seeded fault: the walk raising as a file given by name does: exit 2)."""
+    (tmp_path / "wide.urdf").write_bytes(robot_urdf(MAX_SIMULATED_JOINTS + 1, siblings=True))
+    (tmp_path / "small.urdf").write_bytes(robot_urdf(2))
+    done = run_cli("validate", str(tmp_path), "--tier", "full", in_process=True)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert f"wide.urdf:1: mujoco_compile: {MAX_SIMULATED_JOINTS + 1} movable joints, more than" in done.stdout
+    assert "2 model(s), 1 finding(s)" in done.stdout, done.stdout
