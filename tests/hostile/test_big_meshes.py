@@ -7,10 +7,11 @@ finding, and init refuses it by that limit (``core.limits.MAX_MESH_TRIANGLES``: 
 before MuJoCo refused it; now 7 s). The files are written here cheaply: a sparse 100 MB STL (zeros), and a sphere's
 triangles written with numpy.
 
-Seeded faults: no size check in check_meshes (the sparse STL is read: 1.1 GB and a ZeroDivisionError traceback on
-its zero-size visual, before this change); none in _irregular_assets (MuJoCo reads the MJCF's 100 MB mesh, and
-compiles); none in init's _check_meshes (a config is written for a mesh the build refuses); MeshTooBig swallowed by
-init's floor as other mesh errors are (a config is written for the million triangles).
+Seeded faults: no size check in check_meshes (the sparse STL is read, 1.1 GB, and no finding names the limit; before
+this change its zero-size visual was a ZeroDivisionError traceback); none in _irregular_assets (MuJoCo opens the
+MJCF's 100 MB mesh and refuses it with its own face-count error, which names no size); neither init's size check
+in _check_meshes nor the floor's MeshTooBig (a config is written for the mesh the build refuses; either alone
+refuses this arm, whose visual and collision are one file).
 """
 
 from __future__ import annotations
