@@ -17,11 +17,14 @@ from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+import numpy as np
+
 from svhdesc.control.goals import ErrorCode, Rejection, Tolerances, points_of
 from svhdesc.control.outbox import Outbox
 from svhdesc.control.trajectory import JAZZY, ForwardsToCore, Goal, JointTrajectoryCore, Result, Sample, Status
 from svhdesc.control.work import Latest, on_sim_thread
 from svhdesc.model import ACTION
+from svhdesc.ros2.graph import Prefilled
 from svhdesc.sim import Simulation
 
 UNKNOWN = "<not a joint of this controller>:"  # an unknown name can never match a simulation joint
@@ -156,6 +159,7 @@ class TrajectoryController(ForwardsToCore):
         self._state_message = JointTrajectoryControllerState()
         self._feedback_message = FollowJointTrajectory.Feedback()
         self._state = node.create_publisher(JointTrajectoryControllerState, f"{name}/controller_state", 10)
+        self._state_bytes = state_template(self._ros_names)
         self._server = self._action_server(node, callback_group)
         self._topic = self._subscribe(node, callback_group)
         self._query = self._query_service(node, callback_group)
@@ -314,13 +318,29 @@ class TrajectoryController(ForwardsToCore):
             self._publish_state(sample)
 
     def _publish_state(self, sample: Sample) -> None:
-        message = self._state_message
-        message.header.stamp = stamp(self._Time, sample.stamp)
-        message.joint_names = [self._to_ros[j] for j in sample.joints]
-        _fill(message.reference, message.feedback, message.error, sample)
-        message.output.positions = message.reference.positions  # the position command interface
-        self._state.publish(message)
+        """As bytes written into a serialized template (graph.Prefilled: no per-message conversion); the message
+        itself is built only for the recorder."""
+        at = stamp(self._Time, sample.stamp)
+        wanted = sample.desired
+        values = np.concatenate(
+            [
+                wanted.positions,
+                wanted.velocities,
+                wanted.accelerations,
+                sample.actual_positions,
+                sample.actual_velocities,
+                sample.position_error,
+                sample.velocity_error,
+                wanted.positions,  # output: the position command interface
+            ]
+        )
+        self._state.publish(self._state_bytes.payload(values, at.sec, at.nanosec))
         if self.recorder is not None:
+            message = self._state_message
+            message.header.stamp = at
+            message.joint_names = [self._to_ros[j] for j in sample.joints]
+            _fill(message.reference, message.feedback, message.error, sample)
+            message.output.positions = message.reference.positions
             self.recorder(self._state.topic_name, message, sample.stamp)
 
     def feedback(self, handle: Any, sample: Sample) -> None:
@@ -335,6 +355,24 @@ class TrajectoryController(ForwardsToCore):
         message.joint_names = [self._to_ros[j] for j in sample.joints]
         _fill(message.desired, message.actual, message.error, sample)
         handle.goal_handle.publish_feedback(message)
+
+
+def state_template(names: Sequence[str]) -> Prefilled:
+    """JointTrajectoryControllerState as bytes: every joint of the controller (the core's state samples them all);
+    reference positions, velocities, accelerations, feedback positions, velocities, error positions, velocities,
+    output positions (8 n values, in that order) and the stamp."""
+    from control_msgs.msg import JointTrajectoryControllerState
+    from rclpy.serialization import serialize_message
+
+    n = len(names)
+    block = [[Prefilled.marker(k * n + i) for i in range(n)] for k in range(8)]
+    message = JointTrajectoryControllerState(joint_names=list(names))
+    message.reference.positions, message.reference.velocities, message.reference.accelerations = block[:3]
+    message.feedback.positions, message.feedback.velocities = block[3:5]
+    message.error.positions, message.error.velocities = block[5:7]
+    message.output.positions = block[7]
+    message.header.stamp.sec, message.header.stamp.nanosec = Prefilled.STAMP
+    return Prefilled(serialize_message(message), 8 * n, 1)
 
 
 def _fill(desired: Any, actual: Any, error: Any, sample: Sample) -> None:

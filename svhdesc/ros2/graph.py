@@ -321,3 +321,13 @@ def joint_state_template(names: Sequence[str]) -> Prefilled:
     message = JointState(name=list(names), position=markers[:n], velocity=markers[n : 2 * n], effort=markers[2 * n :])
     message.header.stamp.sec, message.header.stamp.nanosec = Prefilled.STAMP
     return Prefilled(serialize_message(message), 3 * n, 1)
+
+
+def clock_template() -> Prefilled:
+    """/clock (rosgraph_msgs/Clock) as bytes: its stamp only."""
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+
+    message = Clock()
+    message.clock.sec, message.clock.nanosec = Prefilled.STAMP
+    return Prefilled(serialize_message(message), 0, 1)

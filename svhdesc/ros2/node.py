@@ -47,6 +47,7 @@ from svhdesc.model import (
 from svhdesc.ros2.graph import (
     TF_RATE,
     StatePublisher,
+    clock_template,
     controller_parameters,
     description,
     joint_state_template,
@@ -59,6 +60,7 @@ from svhdesc.ros2.system import import_rclpy
 from svhdesc.sim import Simulation
 
 TRACKING_FRAME = "world"  # MuJoCo's world frame, the URDF's root link
+_NO_VALUES = np.zeros(0)
 
 
 def controllers_file(variant: str) -> Path:
@@ -147,6 +149,7 @@ class SimNode:
         self._order = np.array(order, dtype=int)
         self._names = [ros_names[k] for k in order]
         self._joint_state_bytes = joint_state_template(self._names)
+        self._clock_bytes = clock_template()
         self._hardware = HardwareState(broadcaster, self.nodes.get("svh"), sim, self._names, self._xacro)
         self._tf = StatePublisher(self.nodes["robot_state_publisher"], self._urdf, self._names)
         for body in track:
@@ -275,12 +278,12 @@ class SimNode:
 
     def _publish_reading(self, reading: tuple[float, Any, list[Any]]) -> None:
         at, state, poses, hardware = reading
-        clock = self._Clock(clock=self._stamp(self._Time, at))
-        self._clock.publish(clock)
-        self._record(self._clock.topic_name, clock, at)
+        stamp = self._stamp(self._Time, at)
+        self._clock.publish(self._clock_bytes.payload(_NO_VALUES, stamp.sec, stamp.nanosec))
+        if self.recorder is not None:
+            self._record(self._clock.topic_name, self._Clock(clock=stamp), at)
         order = self._order
         positions, velocities, efforts = state.positions[order], state.velocities[order], state.efforts[order]
-        stamp = clock.clock
         values = np.concatenate([positions, velocities, efforts])
         self._joint_states.publish(self._joint_state_bytes.payload(values, stamp.sec, stamp.nanosec))
         if self.recorder is not None:
@@ -290,10 +293,10 @@ class SimNode:
             message.header.stamp = stamp
             self._record(self._joint_states.topic_name, message, at)
         self._hardware.publish(stamp, positions, velocities, efforts, hardware)
-        self._tf.publish(clock.clock, at, positions)
+        self._tf.publish(stamp, at, positions)
         for (_, publisher), (position, quaternion) in zip(self._tracked, poses):
             pose = self._PoseStamped()
-            pose.header.stamp, pose.header.frame_id = clock.clock, TRACKING_FRAME
+            pose.header.stamp, pose.header.frame_id = stamp, TRACKING_FRAME
             p, o = pose.pose.position, pose.pose.orientation
             p.x, p.y, p.z = position.tolist()
             o.w, o.x, o.y, o.z = quaternion.tolist()  # MuJoCo's quaternions are (w, x, y, z)
