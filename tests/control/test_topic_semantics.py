@@ -4,8 +4,9 @@ sample_current), on a real simulation and no ROS: what the ROS 2 adapter's topic
 
 Seeded faults (each failed its test here, then reverted): topic() preempting the active goal -> the goal is
 canceled; topic() skipping _hold_unnamed -> the unnamed joint goes on to its old target; rejects_moving_end False in
-JAZZY -> the moving end is accepted; topic() skipping the check -> the NaN, unknown-joint and non-increasing
-trajectories move the hand; sample_current without the end test -> success after the end."""
+JAZZY -> the moving end is accepted; topic() skipping the check -> the moving end and the nameless trajectory
+are taken (NaN, unknown joints, times and sizes the simulation's follow() refuses again); sample_current without the
+end test -> success after the end."""
 
 from __future__ import annotations
 
