@@ -109,3 +109,14 @@ def test_random_actions_keep_the_followers_on_their_leaders() -> None:
         assert worst <= COUPLING_TOL, worst
     finally:
         env.close()
+
+
+def test_the_consumers_table_runs_the_entity() -> None:
+    """benchmarks/consumers.py's mjlab row (svhdesc.loaders.track's mjlab engine) runs this entity: the hand's 20
+    joints and 11 couplings, the batch model's timestep as mjlab sets it."""
+    from svhdesc.loaders.track import run, servo_plan
+
+    mjcf = str(entity.built("svh_right").model.mjcf_path)
+    found = run("mjlab", "mjcf", mjcf, servo_plan(mjcf), "MuJoCo C", seconds=0.01)
+    assert found.error is None and found.engine == "mjlab", found.error
+    assert (found.dof, len(found.mimics), len(found.q)) == (20, 11, 10)
