@@ -38,15 +38,19 @@ def svhdesc_rates(task: str, envs: int, iterations: int, device: str, out: Path)
     return [float(m.replace(",", "")) for m in re.findall(r"([\d,]+) env-steps/s", text)]
 
 
-def mjlab_rates(task: str, envs: int, iterations: int, device: str, out: Path) -> list[float]:
-    """env-steps/s of each iteration of mjlab's train: the rollout over rsl-rl's collection plus learning time."""
+def mjlab_rates(task: str, envs: int, iterations: int, device: str, out: Path) -> tuple[list[float], float]:
+    """env-steps/s of each iteration of mjlab's train (the rollout over rsl-rl's collection plus learning time), and
+    the share of the iterations after the first that collection took."""
     gpus = "None" if device == "cpu" else "[0]"
     command = [str(MJLAB_PYTHON), "-m", "mjlab.scripts.train", task, "--env.scene.num-envs", str(envs)]
     command += ["--agent.max-iterations", str(iterations), "--gpu-ids", gpus, "--log-root", str(out)]
     text = _run(command, {"MJLAB_WARP_QUIET": "1"})
     collect = [float(t) for t in re.findall(r"Collection time:\s*([\d.]+)s", text)]
     learn = [float(t) for t in re.findall(r"Learning time:\s*([\d.]+)s", text)]
-    return [envs * STEPS_PER_ENV / (c + u) for c, u in zip(collect, learn, strict=True)]
+    rates = [envs * STEPS_PER_ENV / (c + u) for c, u in zip(collect, learn, strict=True)]
+    later = slice(1, None) if len(collect) > 1 else slice(None)
+    share = sum(collect[later]) / max(sum(collect[later]) + sum(learn[later]), 1e-9)
+    return rates, share
 
 
 FAILURES: list[str] = []  # runs that ended before their last iteration: the page says why
@@ -67,11 +71,12 @@ def _run(command: list[str], env: dict[str, str] | None = None) -> str:
     return done.stdout + done.stderr
 
 
-def row(name: str, rates: list[float]) -> str:
+def row(name: str, rates: list[float], collecting: float | None = None) -> str:
+    share = f"{100 * collecting:.0f} %" if collecting is not None and rates else "-"
     if not rates:
-        return f"| {name} | 0 | - | - |"
+        return f"| {name} | 0 | - | - | - |"
     steady = rates[1:] or rates
-    return f"| {name} | {len(rates)} | {rates[0]:,.0f} | {statistics.median(steady):,.0f} |"
+    return f"| {name} | {len(rates)} | {rates[0]:,.0f} | {statistics.median(steady):,.0f} | {share} |"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,18 +88,20 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         f"{args.envs} worlds, {args.iterations} PPO iterations of {STEPS_PER_ENV} steps a world, on {args.device} "
         f"({cpu_model() if args.device == 'cpu' else 'GPU 0'}); env-steps/s = a rollout's env-steps over the "
-        "iteration's wall time (collection and update); the first iteration loads Warp's kernels",
+        "iteration's wall time (collection and update); the first iteration loads Warp's kernels; collecting: the "
+        "share of mjlab's iterations after the first that its rollout took (rsl-rl's collection time; svhdesc train "
+        "prints no split)",
         "",
-        "| task | iterations | first iteration, env-steps/s | median of the others, env-steps/s |",
-        "|---|---|---|---|",
+        "| task | iterations | first iteration, env-steps/s | median of the others, env-steps/s | collecting |",
+        "|---|---|---|---|---|",
     ]
     with tempfile.TemporaryDirectory() as folder:
         for ours, theirs in PAIRS:
             mine = svhdesc_rates(ours, args.envs, args.iterations, args.device, Path(folder) / ours)
             lines.append(row(f"`svhdesc train {ours}`", mine))
             print(lines[-1], flush=True)
-            other = mjlab_rates(theirs, args.envs, args.iterations, args.device, Path(folder) / "mjlab")
-            lines.append(row(f"mjlab `train {theirs}`", other))
+            other, collecting = mjlab_rates(theirs, args.envs, args.iterations, args.device, Path(folder) / "mjlab")
+            lines.append(row(f"mjlab `train {theirs}`", other, collecting))
             print(lines[-1], flush=True)
     if FAILURES:
         lines += [
