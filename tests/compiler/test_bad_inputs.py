@@ -609,6 +609,10 @@ def test_usage_errors_are_one_line(command: list[str]) -> None:
     if command == ["sim"]:  # takes unknown options as ROS remappings; refuses them itself
         fails_cleanly(None, *command, "--bogus", match="unknown variant '--bogus'")
         return
+    if command == ["mjlab"]:  # passes unknown options on to mjlab's CLI, after its action and task
+        fails_cleanly(None, *command, "--bogus", match="'--bogus' is not one of 'train', 'play'")
+        fails_cleanly(None, *command, "train", "--bogus", match="unknown task '--bogus'")
+        return
     message = fails_cleanly(None, *command, "--bogus", match="No such option")
     assert "--bogus" in message and " ".join(["main", *command]) in message
 

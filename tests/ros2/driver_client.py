@@ -41,6 +41,7 @@ from tf2_msgs.msg import TFMessage
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 WALL = 60.0  # the most one answer may take (wall-clock s)
+MATCH_SETTLE = 1.0  # wall-clock s after this side matched, before the first message (see Driver.publisher)
 JTC = "joint_trajectory_controller/JointTrajectoryController"
 ARM = "scaled_joint_trajectory_controller"
 FIST = [0.6, 0.6, 0.7, 0.7, 0.7, 0.7, 0.6, 0.6, 0.3]  # SCHUNK's scripts/example.py presets
@@ -173,6 +174,9 @@ class Driver:
             if time.monotonic() > deadline:
                 raise TimeoutError(f"nobody subscribes /{controller}/joint_trajectory")
             time.sleep(0.01)
+        # Matching is not symmetric in DDS: the node's reader may match this writer a moment after this writer saw it,
+        # and a volatile message sent in between is dropped (a fresh clone's run lost the first one so, under load).
+        time.sleep(MATCH_SETTLE)
         return publisher
 
     def service(self, kind: Any, name: str, timeout: float = WALL) -> Any:
