@@ -267,6 +267,8 @@ class TaskEnv(_Base):  # type: ignore[misc,valid-type]
             else:
                 failed = failed | hit
         diverged = self.physics.diverged()
+        # A blown-up world's reward says nothing and can be huge or NaN, which turns PPO's update into NaN weights
+        reward = torch.where(diverged, torch.zeros_like(reward), reward)
         failed = failed | diverged
         time_out = time_out & ~diverged
         ended = failed | time_out

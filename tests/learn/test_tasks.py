@@ -131,9 +131,10 @@ def test_a_diverged_episode_scores_nothing(rotate_env: TaskEnv) -> None:
     below = rotate.palm(env) + torch.tensor((0.0, 0.0, -0.15))
     env.set_object(~flung, "cube", below.expand(env.num_envs, 3), env.object_quat("cube").clone())
     env.physics.kinematics()
-    _, done, _ = _step(env)
+    reward, done, _ = _step(env)
     stats = env.stats.read()
     assert done.all() and stats["diverged"] == 0.5 and stats["failure"] == 1.0, stats
+    assert torch.equal(reward[:2], torch.zeros(2)), reward  # a blown-up world's reward would swamp PPO's update
     assert stats["score"] == pytest.approx(0.0, abs=0.01), stats
 
 
