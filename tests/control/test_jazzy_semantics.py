@@ -41,14 +41,18 @@ class Sink:
         self.warned.append(text)
 
 
-@pytest.fixture
-def jazzy() -> tuple[Simulation, JointTrajectoryCore, Sink]:
-    sim = Simulation("svh_right", "home")
+def jazzy_core(sim: Simulation) -> tuple[Simulation, JointTrajectoryCore, Sink]:
+    """The hand's controller with Jazzy's semantics and unchecked tolerances, over ``sim``, reporting to a Sink."""
     sink = Sink()
     joints = list(sim.info.actuators)
     defaults = Tolerances({j: 0.0 for j in joints}, {j: 0.0 for j in joints}, 0.01, 0.0)
     core = JointTrajectoryCore("right_hand", joints, sim, sink, True, defaults, reports_velocity=False, semantics=JAZZY)
     return sim, core, sink
+
+
+@pytest.fixture
+def jazzy() -> tuple[Simulation, JointTrajectoryCore, Sink]:
+    return jazzy_core(Simulation("svh_right", "home"))
 
 
 def _run(sim: Simulation, core: JointTrajectoryCore, seconds: float) -> None:

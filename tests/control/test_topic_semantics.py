@@ -14,10 +14,10 @@ import math
 
 import pytest
 
-from svhdesc.control.goals import ErrorCode, Rejection, Tolerances
-from svhdesc.control.trajectory import JAZZY, Goal, JointTrajectoryCore, Result, Status
+from svhdesc.control.goals import ErrorCode, Rejection
+from svhdesc.control.trajectory import Goal, JointTrajectoryCore, Result, Status
 from svhdesc.sim import Point, Simulation
-from tests.control.test_jazzy_semantics import Sink
+from tests.control.test_jazzy_semantics import Sink, _run, jazzy_core
 
 
 @pytest.fixture(scope="module")
@@ -28,15 +28,7 @@ def sim() -> Simulation:
 @pytest.fixture
 def jazzy(sim: Simulation) -> tuple[Simulation, JointTrajectoryCore, Sink]:
     sim.reset("home")
-    sink = Sink()
-    joints = list(sim.info.actuators)
-    defaults = Tolerances({j: 0.0 for j in joints}, {j: 0.0 for j in joints}, 0.01, 0.0)
-    core = JointTrajectoryCore("right_hand", joints, sim, sink, True, defaults, reports_velocity=False, semantics=JAZZY)
-    return sim, core, sink
-
-
-def _run(sim: Simulation, core: JointTrajectoryCore, seconds: float) -> None:
-    sim.run(seconds, realtime=False, every=0.008, callback=lambda _: core.update())
+    return jazzy_core(sim)
 
 
 def _mid(sim: Simulation, joint: str, fraction: float) -> float:
