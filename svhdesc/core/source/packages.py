@@ -95,10 +95,13 @@ def local_mesh_path(uri: str, base: Path, env: Mapping[str, str] | None = None) 
 
 def find_beside(name: str, source: Path) -> Path | None:
     """Where ROS would find package ``name`` for a source file: the folder above the source that is that
-    package (its package.xml names it) or that holds a folder of that name."""
-    for folder in source.resolve().parents:
-        if package_name_of(folder) == name:
-            return folder
-        if (folder / name).is_dir():
-            return folder / name
-    return None
+    package (its package.xml names it) or that holds a folder of that name.
+
+    Of two folders above the source that are both package ``name`` (a ROS 2 package nested in the ROS 1 package whose
+    folder it installs as its share, as svhdesc's generated/<variant>/ros2 is), the outer one wins: a workspace crawl
+    (rospack, colcon) stops descending at the first package.xml it meets, so the nested one is never seen."""
+    folders = source.resolve().parents
+    named = [folder for folder in folders if package_name_of(folder) == name]
+    if named:
+        return named[-1]
+    return next((folder / name for folder in folders if (folder / name).is_dir()), None)
