@@ -127,10 +127,18 @@ def _other_xml(path: Path) -> str | None:
     make it one); None for any other file, and for one whose root cannot be read, which validate_file names."""
     if path.suffix != ".xml":
         return None
+    tag = root_tag(path)
+    return None if tag in (None, "robot", "mujoco") else tag
+
+
+def root_tag(path: Path) -> str | None:
+    """The tag of the file's root element from its first start tag alone, None when that cannot be read."""
     try:
+        # The stream is ours to close: iterparse left at its first event would leave a file it opened to the
+        # garbage collector (a ResourceWarning on the command line).
         with path.open("rb") as stream:
             for _, element in etree.iterparse(stream, events=("start",), resolve_entities=False, no_network=True):
-                return None if element.tag in ("robot", "mujoco") else str(element.tag)
+                return str(element.tag)
     except (etree.XMLSyntaxError, OSError):
         pass
     return None

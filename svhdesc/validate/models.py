@@ -7,9 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from lxml import etree
-
-from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, validate_file
+from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, root_tag, validate_file
 from svhdesc.validate.findings import CheckResult, FileReport
 from svhdesc.validate.full_checks import FULL_CHECKS
 from svhdesc.validate.quirks import JointSettings, Quirks
@@ -66,12 +64,8 @@ def _kind_checks(path: Path, tier: str) -> tuple[str, ...]:
     mjcf = (*STATIC_MJCF_CHECKS, *(FULL_CHECKS if tier == "full" else ()))
     if is_xacro(path) or path.suffix == ".urdf":
         return urdf
-    try:
-        for _, element in etree.iterparse(str(path), events=("start",), resolve_entities=False, no_network=True):
-            return urdf if element.tag == "robot" else mjcf
-    except (etree.XMLSyntaxError, OSError):
-        pass
-    return ()
+    tag = root_tag(path)
+    return () if tag is None else urdf if tag == "robot" else mjcf
 
 
 def model_runs(
