@@ -181,7 +181,7 @@ def _ancestors(model: Any, body: int) -> list[int]:
 
 def _contact_kind(model: Any, leader: _Leader, pair: tuple[str, str]) -> str:
     """'closing' (two parts the leader moves meet, on two branches: its <mimic> followers; or two fingers of one palm:
-    two chains of links without a branch, from a link the leader's joint hangs from that is not the robot's base,
+    two chains of links without a branch, from a link the leader's joint hangs from that is not a floating base,
     which legs hang from), 'scene' (the world's geometry or another body tree) or 'robot'."""
     ids = {model.body(b).name: b for b in range(model.nbody)}
     if any(not name or name not in ids for name in pair):  # an unnamed body: which one is not known
@@ -194,7 +194,9 @@ def _contact_kind(model: Any, leader: _Leader, pair: tuple[str, str]) -> str:
         return "robot"
     if {first[0], second[0]} <= leader.bodies:  # two parts of one linkage, both moved by the leader
         return "closing"
-    palms = {int(model.body_parentid[r]) for r in leader.roots} - {first[-2]}
+    # The base is a palm where it is fixed (a gripper on its own); a floating base is a trunk whose legs meet.
+    trunk = {first[-2]} if model.body_jntnum[first[-2]] else set()
+    palms = {int(model.body_parentid[r]) for r in leader.roots} - trunk
     children = np.bincount(model.body_parentid[1:], minlength=model.nbody)
     tops = (chain[chain.index(common) - 1] for chain in (first, second))
     fingers = common in palms and all(all(children[b] <= 1 for b in subtree(model, top)) for top in tops)

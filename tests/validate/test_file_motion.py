@@ -4,8 +4,9 @@ tier), the settings' keyframe and joints' quirks, and a xacro including a FIFO.
 Clean robots: the three-joint arm with a sliding finger of tests/data/arm3 (an MJCF), and example-robot-data's PR2
 gripper (its palm and fingers, read where pip put the package; the copy written to tmp_path is pruned to them), whose
 fingertips meet before the lower end of its range: a pass with the closing pose, not a blocked joint (the issue's
-third false alarm). Seeded faults: a servo range past its joint's limit, which it drives the joint through (a finding
-at the joint's line);
+third false alarm), and a two-finger gripper on its own, each finger on its own servo, whose fingers meet (the same,
+its palm the fixed base). Seeded faults: a servo range past its joint's limit, which it drives the joint through
+(a finding at the joint's line);
 the arm's post moved into its way (a note naming the pose and the pair); a keyframe name the model lacks, a joint
 the settings name that the model lacks, an effort that is not > 0 (each one error, exit 2); a weak shoulder whose
 settings' effort rates it (gravity_hold passes then); a xacro including a FIFO (one error, exit 2, no hang); a
@@ -105,6 +106,42 @@ def test_a_gripper_closing_on_itself_passes_with_the_closing_pose(pr2_gripper: P
     assert "'r_gripper_l_finger_joint' closes at 0.008" in check.figure, check.figure
     assert "fingers touch (r_gripper_l_finger_tip_link/r_gripper_r_finger_tip_link)" in check.figure
     assert "crosses its own robot" not in check.figure
+
+
+GRIPPER = """<mujoco model="gripper">
+  <worldbody>
+    <body name="palm" pos="0 0 0.3">
+      <geom type="box" size="0.06 0.02 0.01" mass="0.3"/>
+      <body name="left" pos="-0.045 0 -0.045">
+        <joint name="left_slide" type="slide" axis="1 0 0" range="0 0.08"/>
+        <geom type="box" size="0.01 0.01 0.03" mass="0.5"/>
+      </body>
+      <body name="right" pos="0.045 0 -0.045">
+        <joint name="right_slide" type="slide" axis="-1 0 0" range="0 0.08"/>
+        <geom type="box" size="0.01 0.01 0.03" mass="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="left_servo" joint="left_slide" kp="50" ctrlrange="0 0.08" forcerange="-2 2"/>
+    <position name="right_servo" joint="right_slide" kp="50" ctrlrange="0 0.08" forcerange="-2 2"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_a_gripper_on_its_own_closing_its_fingers_apart_passes_with_the_closing_pose(tmp_path: Path) -> None:
+    """A two-finger gripper as a file of its own: the palm is its fixed base, each finger has a servo of its own
+    (no <mimic>), and each finger alone meets the other 10 mm short of its 80 mm stroke. Seeded fault: the same palm
+    on a free joint is a trunk, its chains legs that meet, and the stop reads 'its range crosses its own robot'."""
+    path = tmp_path / "gripper.xml"
+    path.write_text(GRIPPER)
+    check = _check(validate_file(path, FULL, {}, tier="full"))
+    assert check.status == "pass", check
+    assert "'left_slide' closes at 0.07" in check.figure and "fingers touch (left/right)" in check.figure, check
+    path.write_text(GRIPPER.replace('<body name="palm" pos="0 0 0.3">', '<body name="palm" pos="0 0 0.3"><freejoint/>'))
+    check = _check(validate_file(path, FULL, {}, tier="full"))
+    assert "closes at" not in check.figure and "crosses its own robot" in check.figure, check.figure
 
 
 def test_joints_quirks_tolerance_ignore_and_effort(tmp_path: Path) -> None:
