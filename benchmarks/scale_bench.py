@@ -43,17 +43,22 @@ def _box(link: etree._Element, tag: str) -> None:
     etree.SubElement(geometry, "box", size="0.02 0.02 0.1")
 
 
+def _inertial(link: etree._Element) -> None:
+    inertial = etree.SubElement(link, "inertial")
+    etree.SubElement(inertial, "origin", xyz="0 0 -0.05")
+    etree.SubElement(inertial, "mass", value="0.1")
+    etree.SubElement(inertial, "inertia", ixx="1e-4", iyy="1e-4", izz="1e-5", ixy="0", ixz="0", iyz="0")
+
+
 def robot_urdf(links: int, siblings: bool = False) -> bytes:
     """A URDF of ``links`` moving links: a chain hanging from 'base', or all of them on 'base' (``siblings``)."""
     robot = etree.Element("robot", name=f"{'siblings' if siblings else 'chain'}_{links}")
     base = etree.SubElement(robot, "link", name="base")
+    _inertial(base)  # a base of mass 0 is one Gazebo's SDFormat drops, with every link on it (validate: sdformat)
     _box(base, "visual")
     for i in range(1, links + 1):
         link = etree.SubElement(robot, "link", name=f"link{i}")
-        inertial = etree.SubElement(link, "inertial")
-        etree.SubElement(inertial, "origin", xyz="0 0 -0.05")
-        etree.SubElement(inertial, "mass", value="0.1")
-        etree.SubElement(inertial, "inertia", ixx="1e-4", iyy="1e-4", izz="1e-5", ixy="0", ixz="0", iyz="0")
+        _inertial(link)
         _box(link, "visual")
         _box(link, "collision")
         joint = etree.SubElement(robot, "joint", name=f"joint{i}", type="revolute")

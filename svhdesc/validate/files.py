@@ -20,6 +20,7 @@ from lxml import etree
 from svhdesc.core.limits import mesh_size_problem
 from svhdesc.core.source.packages import package_map
 from svhdesc.errors import SvhdescError
+from svhdesc.validate.file_parsers import PARSER_CHECKS, Parsers
 from svhdesc.validate.findings import CheckResult, FileReport, Finding
 from svhdesc.validate.full_checks import FULL_CHECKS, run_full_checks
 from svhdesc.validate.poses import is_position_servo
@@ -39,7 +40,7 @@ _SKIP_DIRS = {".git", ".hg", ".svn", "node_modules", "__pycache__", ".venv", "bu
 
 
 def known_checks() -> tuple[str, ...]:
-    return ("xml", *RULES, *STATIC_MJCF_CHECKS, "mujoco_compile", *FULL_CHECKS)
+    return ("xml", *RULES, *PARSER_CHECKS, *STATIC_MJCF_CHECKS, "mujoco_compile", *FULL_CHECKS)
 
 
 def _parser() -> etree.XMLParser:
@@ -280,9 +281,11 @@ def validate_file(
         report = FileReport(str(path), "urdf")
         source = UrdfSource(path, root, _Packages(packages, path), xacro_files)
         report.checks.append(_result("xml", tolerated))
+        parsers = Parsers(source, selected)  # external tools run while the rules read the file
         for name, rule in RULES.items():
             if name in selected:
                 report.checks.append(_result(name, rule(source)))
+        report.checks.extend(parsers.results())
         if tier == "full" and selected & {"mujoco_compile", *FULL_CHECKS}:
             refused = unsimulated(root, path, walked, "mujoco_compile")
             report.checks.extend(refused or _full_urdf(source, quirks or Quirks()))

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from svhdesc.validate.file_parsers import PARSER_CHECKS
 from svhdesc.validate.files import STATIC_MJCF_CHECKS, is_xacro, robot_files, root_tag, validate_file
 from svhdesc.validate.findings import CheckResult, FileReport
 from svhdesc.validate.full_checks import FULL_CHECKS
@@ -60,7 +61,7 @@ class ModelRun:
 
 
 def _kind_checks(path: Path, tier: str) -> tuple[str, ...]:
-    urdf = (*RULES, *(("mujoco_compile", *FULL_CHECKS) if tier == "full" else ()))
+    urdf = (*RULES, *PARSER_CHECKS, *(("mujoco_compile", *FULL_CHECKS) if tier == "full" else ()))
     mjcf = (*STATIC_MJCF_CHECKS, *(FULL_CHECKS if tier == "full" else ()))
     if is_xacro(path) or path.suffix == ".urdf":
         return urdf

@@ -43,8 +43,9 @@ def test_plain_pytest_collects_model_by_check(repo: Path) -> None:
     model = "urdf/arm.urdf.xacro::"
     assert f"{model}joint_limits[side=left]" in ids and f"{model}mimic[side=right]" in ids
     assert "tests/test_own.py::test_own" in ids
-    # xml, the six URDF rules (meshes: skipped), then the full tier's MuJoCo compile and seven simulated checks
-    assert len([i for i in ids if i.endswith("[side=left]")]) == 15
+    # xml, the six URDF rules (meshes: skipped), the three parsers, then the full tier's MuJoCo compile and seven
+    # simulated checks
+    assert len([i for i in ids if i.endswith("[side=left]")]) == 18
     assert f"{model}gravity_hold[side=right]" in ids
     # Given paths, pytest runs those only; --svhdesc adds the models.
     narrowed = _pytest(repo, "--collect-only", "-q", "tests")
