@@ -291,7 +291,7 @@ WHEEL = """<mujoco model="cart">
 
 def test_a_velocity_servo_too_weak_for_its_joint_fails_velocity_tracking(tmp_path: Path) -> None:
     """The wheel turns at 5 rad/s when told (kv 1 against damping 0.01: 1 % slow); seeded fault: damping 1, as
-    much as the servo's gain, halves the speed, at the actuator's line. A URDF has no velocity servo: skipped."""
+    much as the servo's gain, halves the speed, at the actuator's line. (A URDF's joints: test_full_tier.py.)"""
     clean = tmp_path / "cart.xml"
     clean.write_text(WHEEL)
     check = _check(validate_file(clean, FULL | {"velocity_tracking"}, {}, tier="full"), "velocity_tracking")

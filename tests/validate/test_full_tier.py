@@ -2,12 +2,13 @@
 
 Clean robots: pybullet_data's Panda (a URDF, read where pip put it) and an arm written here as an MJCF (a keyframe,
 position servos, a coupled fingertip, a floor). Each simulated check has a seeded fault that fails it, at the line
-of the element it names; and a file with a fault MuJoCo refuses to load unaided is still simulated, the fault a
-finding.
+of the element it names (velocity_tracking's on pybullet_data's KUKA iiwa: a joint damped past its effort); and a
+file with a fault MuJoCo refuses to load unaided is still simulated, the fault a finding.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -81,6 +82,9 @@ def test_the_clean_arm_and_panda_pass_every_check(tmp_path: Path) -> None:
     assert _failures(panda) == {}
     statuses = {c.name: c.status for c in panda.checks}
     assert statuses["rest_contacts"] == "skipped"  # a URDF states no pose
+    # 7 of its 8 driven joints ramp at half their <limit velocity> on their effort (joint5: too short to settle)
+    velocity = next(c for c in panda.checks if c.name == "velocity_tracking")
+    assert velocity.status == "pass" and velocity.figure.startswith("7 joint(s) ramped at 0.5 x"), velocity
     assert {n for n, s in statuses.items() if s == "pass"} >= FULL - {"rest_contacts"}
 
 
@@ -208,3 +212,55 @@ def test_a_urdf_rest_pose_from_the_settings_is_where_contacts_are_judged(tmp_pat
     package = f"meshes={PACKAGES['meshes']}"
     unposed = run_cli("validate", str(path), "--package", package, in_process=True)  # no pose: skipped, says why
     assert unposed.returncode == 0 and "rest_contacts" not in unposed.stdout, unposed.stdout
+
+
+def _kuka(tmp_path: Path, name: str, **limit: str) -> Path:
+    """pybullet_data's KUKA iiwa (its meshes where pip put them), its second joint damped 1000 times as much as the
+    file says (0.5 -> 500 N m s: 2500 N m at half its 10 rad/s, against an effort of 300), its <limit> edited."""
+    import pybullet_data
+
+    source = Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
+    tree = etree.parse(str(source))
+    for mesh in tree.iterfind(".//mesh"):
+        mesh.set("filename", str(source.parent / mesh.get("filename")))
+    _set("joint[@name='lbr_iiwa_joint_2']/dynamics", damping="500")(tree.getroot())
+    _set("joint[@name='lbr_iiwa_joint_2']/limit", **limit)(tree.getroot())
+    return _write(tree, tmp_path / name)
+
+
+def test_velocity_tracking_fails_a_joint_its_damping_holds_back_at_its_limit(tmp_path: Path) -> None:
+    """A URDF's joints ramp alone from the rest pose at half their <limit velocity>, on their rated effort. Seeded
+    fault: the KUKA's second joint damped 1000 times over crawls at 0.61 rad/s of the 5 asked: a finding at its
+    <limit> line naming the effort the speed needs and what would pass, in the text and JSON reports as the other
+    checks' findings; the other joints pass or are left out with the reason (a ramp too short for their servo).
+    The velocity limit it names passes (the joint ramped, not left out), and so does the effort."""
+    import json
+
+    from svhdesc.validate.findings import render
+
+    path = _kuka(tmp_path, "kuka.urdf")
+    report = validate_file(path, {"velocity_tracking"}, {}, tier="full")
+    check = next(c for c in report.checks if c.name == "velocity_tracking")
+    assert check.status == "fail" and check.figure.startswith("5 joint(s) ramped at 0.5 x their velocity limit")
+    assert "'lbr_iiwa_joint_7' left out: its ramp at 5 rad/s lasts 0.611 s, under 16 x" in check.figure
+    (finding,) = check.findings
+    assert finding.line == etree.parse(str(path)).find("joint[@name='lbr_iiwa_joint_2']/limit").sourceline
+    assert finding.message.startswith("joint 'lbr_iiwa_joint_2' moves at 0.6"), finding
+    assert "on a ramp at 5 (0.5 x its velocity limit 10)" in finding.message and "87." in finding.message
+    assert "that speed needs 24" in finding.message and "rated 300" in finding.message
+    effort, velocity = (float(v) for v in re.fullmatch(r'effort="(.+)" or velocity="(.+)"', finding.remedy).groups())
+    assert 2400 < effort < 3000 and 1.0 < velocity < 1.3, finding.remedy
+    shown = render([report], "text")
+    assert f"kuka.urdf:{finding.line}: velocity_tracking: joint 'lbr_iiwa_joint_2'" in shown
+    assert f"(would pass: {finding.remedy})" in shown
+    (listed,) = next(c for c in json.loads(render([report], "json"))[0]["checks"] if c["name"] == "velocity_tracking")[
+        "findings"
+    ]
+    assert listed["line"] == finding.line and listed["remedy"] == finding.remedy
+    slower = _kuka(tmp_path, "slower.urdf", velocity=f"{velocity:g}")
+    passing = next(
+        c for c in validate_file(slower, {"velocity_tracking"}, {}, tier="full").checks if c.name == "velocity_tracking"
+    )
+    assert passing.status == "pass" and passing.figure.startswith("5 joint(s) ramped"), passing
+    stronger = _kuka(tmp_path, "stronger.urdf", effort=f"{effort:g}")
+    assert _failures(validate_file(stronger, {"velocity_tracking"}, {}, tier="full")) == {}
