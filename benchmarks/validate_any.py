@@ -474,10 +474,12 @@ def menagerie(path: Path) -> str:
     return "fail" if any(w.number for w in data.warning) else "pass"
 
 
-def svhdesc_verdict(path: Path, line: int | None) -> tuple[str, bool]:
+def svhdesc_verdict(path: Path, line: int | None, file: Path | None = None) -> tuple[str, bool]:
+    """svhdesc's verdict, and whether a finding stands at ``line`` (of ``file``, where given)."""
     report = validate_file(path, ALL, {}, False, {}, "full")
     findings = [f for c in report.checks if c.status == "fail" for f in c.findings]
-    return ("fail" if findings else "pass"), any(f.line == line for f in findings)
+    at = [f for f in findings if file is None or Path(f.file).resolve() == file.resolve()]
+    return ("fail" if findings else "pass"), line is not None and any(f.line == line for f in at)
 
 
 def clean_urdfs(rows_by_population: dict[str, list[dict]], roots: dict[str, Path]) -> list[Path]:
@@ -549,6 +551,9 @@ def catalogue(clean: list[Path], work: Path) -> tuple[list[str], dict]:
 # --- seeded faults in MJCF (MjSpec edits, written beside the original in the wheel cache) -----------------------
 
 
+_SEEDED: dict[str, str] = {}  # the name a seed gave, or found, on the element it changed
+
+
 def _position_servo(model) -> int | None:  # type: ignore[no-untyped-def]
     for i in range(model.nu):
         joint = int(model.actuator_trnid[i, 0])
@@ -568,6 +573,8 @@ def _mjcf_wide_ctrlrange(spec, model, path: Path) -> bool:  # type: ignore[no-un
         return False
     lo, hi = model.jnt_range[model.actuator_trnid[servo, 0]]
     spec.actuators[servo].ctrlrange = [lo - 0.5 * (hi - lo), hi + 0.5 * (hi - lo)]
+    spec.actuators[servo].name = spec.actuators[servo].name or "seeded_servo"  # found again in the written file
+    _SEEDED["servo"] = spec.actuators[servo].name
     return True
 
 
@@ -655,6 +662,19 @@ def _diverges(model) -> bool:  # type: ignore[no-untyped-def]
     return False
 
 
+def _seeded_line(kind: str, spec, written: Path) -> int | None:  # type: ignore[no-untyped-def]
+    """The line of the element a kind seeded, in the file MjSpec wrote."""
+    root = etree.parse(str(written)).getroot()
+    paths = {
+        "actuator range beyond its joint's": f"actuator/*[@name='{_SEEDED.get('servo')}']",
+        "keyframe outside the limits": "keyframe/key[@name='seeded']",
+        "bodies interpenetrating at rest": ".//body[@name='seeded_overlap']",
+        "a timestep at which the model diverges": "option",
+    }
+    element = root.find(paths[kind]) if paths.get(kind) else None
+    return element.sourceline if element is not None else None
+
+
 MJCF_KINDS: dict[str, Callable] = {
     "actuator range beyond its joint's": _mjcf_wide_ctrlrange,
     "keyframe outside the limits": _mjcf_key_outside,
@@ -700,7 +720,9 @@ def mjcf_catalogue(clean: list[Path]) -> tuple[list[str], Counter, list[Path]]:
             try:
                 seeded.write_text(spec.to_xml())
                 counts[kind]["seeded"] += 1
-                counts[kind]["svhdesc"] += svhdesc_verdict(seeded, None)[0] == "fail"
+                verdict, located = svhdesc_verdict(seeded, _seeded_line(kind, spec, seeded), seeded)
+                counts[kind]["svhdesc"] += verdict == "fail"
+                counts[kind]["at_line"] += located
                 counts[kind]["Menagerie model test"] += menagerie(seeded) == "fail"
                 used += [robot] if robot not in used else []
             except ValueError:  # a model MjSpec cannot write back (to_xml refuses some): not seeded
@@ -708,17 +730,18 @@ def mjcf_catalogue(clean: list[Path]) -> tuple[list[str], Counter, list[Path]]:
             finally:
                 seeded.unlink(missing_ok=True)
     lines = [
-        "| fault | seeded | svhdesc | check_urdf | urdf-validator 1.6 | Menagerie model test |",
-        "|---|---|---|---|---|---|",
+        "| fault | seeded | svhdesc | check_urdf | urdf-validator 1.6 | Menagerie model test | svhdesc at the seeded "
+        "line |",
+        "|---|---|---|---|---|---|---|",
     ]
     totals: Counter = Counter()
     for kind in MJCF_KINDS:
         n = counts[kind]["seeded"]
-        totals["seeded"] += n
-        totals["svhdesc"] += counts[kind]["svhdesc"]
-        totals["Menagerie model test"] += counts[kind]["Menagerie model test"]
+        for key in ("seeded", "svhdesc", "Menagerie model test", "at_line"):
+            totals[key] += counts[kind][key]
         lines.append(
-            f"| {kind} | {n} | {counts[kind]['svhdesc']}/{n} | n/a | n/a | {counts[kind]['Menagerie model test']}/{n} |"
+            f"| {kind} | {n} | {counts[kind]['svhdesc']}/{n} | n/a | n/a | {counts[kind]['Menagerie model test']}/{n} "
+            f"| {counts[kind]['at_line']}/{n} |"
         )
     return lines, totals, used
 

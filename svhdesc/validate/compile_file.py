@@ -253,6 +253,8 @@ def compile_urdf(
 
     def where(tag: str, name: str) -> tuple[str, int | None]:
         """tag body: the <link>; joint: the <joint>; rating: the joint's <limit> (its effort)."""
+        if tag == "timestep":  # a URDF states none: MuJoCo's default, at the <robot>
+            return source.where(source.root)
         path = {"body": f"link[@name='{name}']", "rating": f"joint[@name='{name}']/limit"}
         element = source.root.find(path.get(tag, f"joint[@name='{name}']"))
         if element is None and tag == "rating":

@@ -362,6 +362,10 @@ def _mjcf_where(path: Path, files: list[tuple[Path, etree._Element]]):  # type: 
                 for element in root.iterfind("equality/*"):
                     if name in (element.get("name"), element.get("joint1")):
                         return str(file), element.sourceline
+        if tag == "timestep":  # the <option> stating it, else the model's root: where a timestep is set
+            stated = [(f, e) for f, root in files for e in root.iterfind("option") if e.get("timestep") is not None]
+            file, element = stated[-1] if stated else (path, files[0][1] if files else None)
+            return str(file), element.sourceline if element is not None else None
         return _locate(files, tag, name) if tag != "model" else (str(path), None)
 
     return where

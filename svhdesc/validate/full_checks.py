@@ -89,8 +89,10 @@ class _Watch:
 
 
 def _file_finding(compiled: Compiled, check: str, message: str) -> Finding:
-    file, _ = compiled.where("model", "")
-    return Finding(check, file, None, message)
+    """A run's finding, at the timestep it ran at: an MJCF's <option timestep>, a URDF's <robot> (MuJoCo's
+    default timestep: the file states none)."""
+    file, line = compiled.where("timestep", "")
+    return Finding(check, file, line, message)
 
 
 def _run_result(compiled: Compiled, check: str, data, watch: _Watch, what: str) -> CheckResult:  # type: ignore[no-untyped-def]
