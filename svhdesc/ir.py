@@ -149,7 +149,14 @@ class Transmission:
 @dataclass(frozen=True)
 class Keyframe:
     name: str
-    qpos: tuple[tuple[str, float], ...]  # every movable joint, spec-propagated
+    qpos: tuple[tuple[str, float], ...]  # every movable joint, spec-propagated: the pose
+    # The servo targets (joint -> target) where they differ from the pose: a grasp's, closed past its object (the
+    # pose stops where the fingers meet: compiler/probes/keyframe_contacts.py). None: the pose is the target.
+    targets: tuple[tuple[str, float], ...] | None = None
+
+    def servo_targets(self) -> dict[str, float]:
+        """Each joint's servo target: ``targets`` where given, else the pose."""
+        return dict(self.qpos if self.targets is None else self.targets)
 
 
 @dataclass(frozen=True)

@@ -90,8 +90,10 @@ def _arm_home(model: Any, data: Any) -> None:
 
 
 def _key_targets(model: Any, hand: Hand, name: str) -> dict[str, float]:
+    """The grasp's channel targets: its keyframe's ctrl on each channel's position servo. The key's qpos is where
+    the fingers stop without the object; the targets close past it, so that the servos press with full effort."""
     key = model.key(name)
-    return {channel: float(key.qpos[model.jnt_qposadr[joint]]) for channel, joint in hand.channels.items()}
+    return {channel: float(key.ctrl[actuator]) for channel, actuator in hand.actuators.items()}
 
 
 def _open(model: Any, hand: Hand) -> dict[str, float]:

@@ -316,13 +316,13 @@ def _keyframes(root: etree._Element, robot: Robot) -> None:
     order = mjcf_joint_order(robot)
     keyframe = sub(root, "keyframe")
     for frame in robot.keyframes:
-        values = dict(frame.qpos)
+        values, targets = dict(frame.qpos), frame.servo_targets()  # the pose; the servos' targets (a grasp's: past it)
         sub(
             keyframe,
             "key",
             name=frame.name,
             qpos=nums(values[j] for j in order),
-            ctrl=nums(_home_ctrl(a, values[a.joint]) for a in robot.actuators),
+            ctrl=nums(_home_ctrl(a, targets[a.joint]) for a in robot.actuators),
         )
 
 

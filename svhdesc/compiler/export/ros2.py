@@ -9,6 +9,7 @@ ROS 1 exporters (URDF, SRDF, joint limits, MJCF) then write the ROS 2 files from
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from svhdesc.compiler.export.moveit import arm_joints, hand_prefix, velocity_joints
@@ -64,8 +65,16 @@ def ros2_robot(robot: Robot) -> Robot:
         couplings=tuple(replace(c, joint=name(c.joint)) for c in robot.couplings),
         actuators=tuple(replace(a, joint=name(a.joint)) for a in robot.actuators),
         transmissions=tuple(replace(t, name=name(t.name), joint=name(t.joint)) for t in robot.transmissions),
-        keyframes=tuple(replace(k, qpos=tuple((name(j), q) for j, q in k.qpos)) for k in robot.keyframes),
+        keyframes=tuple(
+            replace(k, qpos=_renamed(k.qpos, name), targets=_renamed(k.targets, name)) for k in robot.keyframes
+        ),
     )
+
+
+def _renamed(
+    values: tuple[tuple[str, float], ...] | None, name: Callable[[str], str]
+) -> tuple[tuple[str, float], ...] | None:
+    return None if values is None else tuple((name(j), q) for j, q in values)
 
 
 def controllers(robot: Robot) -> list[tuple[str, list[str], str]]:

@@ -22,6 +22,7 @@ from lxml import etree
 from svhdesc.compiler.assets import Assets
 from svhdesc.compiler.decompose.source import HullSource
 from svhdesc.compiler.pipeline.timings import Timings
+from svhdesc.compiler.probes.keyframe_contacts import stop_at_contact
 from svhdesc.compiler.probes.rest_contacts import exclude_touching
 from svhdesc.compiler.probes.stability import check_servos
 from svhdesc.compiler.stages.actuation import add_actuation, add_force_sensor, add_keyframes
@@ -114,6 +115,8 @@ CHECKS: tuple[Check, ...] = (
 # These compile the model in MuJoCo: they run on a checked model, so that a check names the fault first.
 SIMULATED: tuple[Processor, ...] = (
     Processor("exclusions", exclude_touching, lambda plan: plan.settings.collision),
+    # a keyframe is a state a user loads: one whose fingers close into each other stops where they meet
+    Processor("keyframes", stop_at_contact, lambda plan: None),
     # a model whose servos the timestep cannot integrate diverges: refused, never called built
     Processor("checks", check_servos, lambda plan: (plan.settings.arm.at("kp"), plan.settings.hand.at("kp"))),
 )

@@ -161,15 +161,20 @@ def test_the_trial_run_is_stepped_once_per_model(tmp_path: Path, monkeypatch: py
 
 
 # What each sampling function computes: its cache folder's name, the kind in a manifest's ``sampled``.
-KINDS = {"diverges": "trial_run", "collision_matrix": "collision_matrix", "sample_capacities": "capacities"}
+KINDS = {
+    "diverges": "trial_run",
+    "collision_matrix": "collision_matrix",
+    "sample_capacities": "capacities",
+    "stopped_poses": "keyframe_poses",
+}
 
 
 def _counting_probes(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """The kinds of the results sampled from now on, one entry each time one is computed instead of read."""
-    from svhdesc.compiler.probes import stability
+    from svhdesc.compiler.probes import keyframe_contacts, stability
 
     computed: list[str] = []
-    for module in (stability, collision_matrix, batch_capacities):
+    for module in (stability, collision_matrix, batch_capacities, keyframe_contacts):
         for name in KINDS.keys() & vars(module).keys():
             real = getattr(module, name)
             monkeypatch.setattr(module, name, lambda *a, _f=real, _k=KINDS[name]: computed.append(_k) or _f(*a))
@@ -226,4 +231,4 @@ def test_each_shipped_manifest_holds_its_own_sampled_results() -> None:
     for manifest in manifests.values():
         assert {kind: len(entries) for kind, entries in manifest["sampled"].items()} == dict.fromkeys(KINDS.values(), 1)
     keys = [key for manifest in manifests.values() for entries in manifest["sampled"].values() for key in entries]
-    assert len(keys) == len(set(keys)) == 3 * len(manifests)
+    assert len(keys) == len(set(keys)) == len(KINDS) * len(manifests)
